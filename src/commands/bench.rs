@@ -1,0 +1,181 @@
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use serde::{Deserialize, Serialize};
+
+use meshgaze::mesh::{load_mesh, subdivide_midpoint, Mesh};
+use meshgaze::progress::Silent;
+use meshgaze::saliency::{sparse_metric_saliency, SmsExtras, SmsParams};
+
+/// Time SMS at the paper's settings, as in the paper's Table 3.
+///
+/// Cases: the 35,947-vertex Stanford bunny, and the 50k armadillo subdivided twice (about
+/// 800k vertices). Each case runs in its own process so its peak memory is its own.
+/// Prints a Markdown table; --csv also writes it as CSV.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Folder with the shared meshes (meshes/classic/...).
+    #[arg(long, default_value = "../shared/data")]
+    pub data: PathBuf,
+    /// Repeat each case this many times and keep the fastest total.
+    #[arg(long, default_value_t = 1)]
+    pub repeat: usize,
+    /// Also write the table as CSV here.
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
+    /// Run one case in this process and print its JSON (used internally).
+    #[arg(long, hide = true)]
+    pub case: Option<String>,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct CaseResult {
+    name: String,
+    vertices: usize,
+    a_s: f64,
+    b_s: f64,
+    c_s: f64,
+    total_s: f64,
+    load_s: f64,
+    peak_rss_mb: f64,
+    paper_total_s: f64,
+}
+
+const CASES: [(&str, f64); 2] = [("bunny-35k", 43.5), ("armadillo-subdivided", 48.9)];
+
+fn load_case(name: &str, data: &Path) -> Result<Mesh> {
+    Ok(match name {
+        "bunny-35k" => load_mesh(&data.join("meshes/classic/stanford_bunny/bun_zipper.ply"))?.0,
+        "armadillo-subdivided" => {
+            let m =
+                load_mesh(&data.join("meshes/classic/decimated_profactor_50k/armadillo.obj"))?.0;
+            subdivide_midpoint(&subdivide_midpoint(&m))
+        }
+        other => bail!("unknown bench case {other}"),
+    })
+}
+
+fn peak_rss_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<f64>().ok())
+        })
+        .map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+fn run_case(name: &str, data: &Path, repeat: usize) -> Result<CaseResult> {
+    let t = std::time::Instant::now();
+    let mesh = load_case(name, data)?;
+    let load_s = t.elapsed().as_secs_f64();
+    let params = SmsParams::default();
+    let mut best: Option<CaseResult> = None;
+    for _ in 0..repeat.max(1) {
+        let r = sparse_metric_saliency(&mesh, &params, SmsExtras::default(), &Silent)
+            .map_err(|e| anyhow::anyhow!(e))?;
+        let tm = &r.report.timings;
+        let paper = CASES.iter().find(|c| c.0 == name).map_or(f64::NAN, |c| c.1);
+        let cr = CaseResult {
+            name: name.to_string(),
+            vertices: mesh.positions.len(),
+            a_s: tm.a_metric_s,
+            b_s: tm.b_saliency_s,
+            c_s: tm.c_interpolation_s,
+            total_s: tm.total_s,
+            load_s,
+            peak_rss_mb: 0.0,
+            paper_total_s: paper,
+        };
+        if best.as_ref().is_none_or(|b| cr.total_s < b.total_s) {
+            best = Some(cr);
+        }
+    }
+    let mut best = best.expect("at least one run");
+    best.peak_rss_mb = peak_rss_mb();
+    Ok(best)
+}
+
+pub fn run(args: BenchArgs) -> Result<()> {
+    if let Some(case) = &args.case {
+        let r = run_case(case, &args.data, args.repeat)?;
+        println!("{}", serde_json::to_string(&r)?);
+        return Ok(());
+    }
+    if !args.data.join("meshes/classic").is_dir() {
+        bail!(
+            "{}: no meshes/classic folder; pass --data with the shared data folder",
+            args.data.display()
+        );
+    }
+    let exe = std::env::current_exe().context("cannot find the meshgaze executable")?;
+    let threads = rayon::current_num_threads();
+    let mut rows = Vec::new();
+    for (name, _) in CASES {
+        eprintln!("bench: {name} ...");
+        let out = Command::new(&exe)
+            .args([
+                "bench",
+                "--case",
+                name,
+                "--repeat",
+                &args.repeat.to_string(),
+                "--data",
+            ])
+            .arg(&args.data)
+            .output()
+            .context("cannot run the bench case")?;
+        if !out.status.success() {
+            bail!(
+                "bench case {name} failed: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+        let line = String::from_utf8_lossy(&out.stdout);
+        rows.push(serde_json::from_str::<CaseResult>(line.trim())?);
+    }
+    println!("SMS at the paper's settings (n = 5000, 5 scales, 256³ grid, μ = 0.2, σ = 0.02), {threads} threads:\n");
+    println!("| mesh | vertices | A metric (s) | B saliency (s) | C interpolation (s) | total (s) | paper total (s) | speed-up | peak RSS (MB) |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
+    for r in &rows {
+        println!(
+            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.0}x | {:.0} |",
+            r.name,
+            r.vertices,
+            r.a_s,
+            r.b_s,
+            r.c_s,
+            r.total_s,
+            r.paper_total_s,
+            r.paper_total_s / r.total_s,
+            r.peak_rss_mb
+        );
+    }
+    println!(
+        "\nLoading (not counted above): {}",
+        rows.iter()
+            .map(|r| format!("{} {:.2} s", r.name, r.load_s))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    if let Some(path) = &args.csv {
+        let mut w = csv_writer(path)?;
+        w.push_str("mesh,vertices,a_s,b_s,c_s,total_s,paper_total_s,peak_rss_mb\n");
+        for r in &rows {
+            w.push_str(&format!(
+                "{},{},{},{},{},{},{},{}\n",
+                r.name, r.vertices, r.a_s, r.b_s, r.c_s, r.total_s, r.paper_total_s, r.peak_rss_mb
+            ));
+        }
+        std::fs::write(path, w).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(())
+}
+
+fn csv_writer(_path: &Path) -> Result<String> {
+    Ok(String::new())
+}

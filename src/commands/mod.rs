@@ -1,0 +1,4 @@
+pub mod bench;
+pub mod demo;
+pub mod progress_bar;
+pub mod saliency;

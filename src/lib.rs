@@ -1,0 +1,15 @@
+//! meshgaze: build and validate 3D eye-fixation datasets on polygon meshes, with a fast
+//! sparse metric-based mesh saliency core (Hu et al., Neurocomputing 2020).
+//!
+//! The modules follow the pipeline: [`mesh`] I/O, [`geometry`] helpers, surface
+//! [`sampling`], shape [`descriptors`], [`saliency`] methods, [`metrics`], and the
+//! [`provenance`] every output carries.
+
+pub mod descriptors;
+pub mod geometry;
+pub mod mesh;
+pub mod metrics;
+pub mod progress;
+pub mod provenance;
+pub mod saliency;
+pub mod sampling;

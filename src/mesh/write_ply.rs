@@ -1,0 +1,77 @@
+use std::io::Write;
+use std::path::Path;
+
+use super::Mesh;
+
+/// Maps a value in [0, 1] to an RGB colour, blue (low) through cyan, green, yellow to red
+/// (high), the ramp of the saliency figures in the paper.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ColorRamp;
+
+impl ColorRamp {
+    pub fn rgb(&self, t: f64) -> [u8; 3] {
+        const STOPS: [[f64; 3]; 5] = [
+            [0.0, 0.0, 1.0],
+            [0.0, 1.0, 1.0],
+            [0.0, 1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [1.0, 0.0, 0.0],
+        ];
+        let t = if t.is_finite() {
+            t.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let x = t * 4.0;
+        let i = (x.floor() as usize).min(3);
+        let f = x - i as f64;
+        let c = |k: usize| ((STOPS[i][k] * (1.0 - f) + STOPS[i + 1][k] * f) * 255.0).round() as u8;
+        [c(0), c(1), c(2)]
+    }
+}
+
+/// Writes a binary little-endian PLY with a per-vertex float `quality` (MeshLab shows it
+/// with Render > Color > Per Vertex Quality) and the ramp colour of the quality.
+pub fn write_ply_with_quality(
+    path: &Path,
+    mesh: &Mesh,
+    quality: &[f64],
+    comments: &[String],
+) -> std::io::Result<()> {
+    assert_eq!(
+        quality.len(),
+        mesh.positions.len(),
+        "one quality value per vertex"
+    );
+    let mut out = std::io::BufWriter::new(std::fs::File::create(path)?);
+    writeln!(out, "ply")?;
+    writeln!(out, "format binary_little_endian 1.0")?;
+    for c in comments {
+        // A newline inside a comment would end the header early.
+        writeln!(out, "comment {}", c.replace(['\n', '\r'], " "))?;
+    }
+    writeln!(out, "element vertex {}", mesh.positions.len())?;
+    for p in ["x", "y", "z", "quality"] {
+        writeln!(out, "property float {p}")?;
+    }
+    for p in ["red", "green", "blue"] {
+        writeln!(out, "property uchar {p}")?;
+    }
+    writeln!(out, "element face {}", mesh.triangles.len())?;
+    writeln!(out, "property list uchar int vertex_indices")?;
+    writeln!(out, "end_header")?;
+    let ramp = ColorRamp;
+    for (p, &q) in mesh.positions.iter().zip(quality) {
+        for v in [p.x as f32, p.y as f32, p.z as f32, q as f32] {
+            out.write_all(&v.to_le_bytes())?;
+        }
+        out.write_all(&ramp.rgb(q))?;
+    }
+    for t in &mesh.triangles {
+        out.write_all(&[3u8])?;
+        for &i in t {
+            out.write_all(&(i as i32).to_le_bytes())?;
+        }
+    }
+    out.flush()
+}
