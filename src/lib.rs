@@ -5,6 +5,7 @@
 //! [`sampling`], shape [`descriptors`], [`saliency`] methods, [`metrics`], and the
 //! [`provenance`] every output carries.
 
+pub mod corruption;
 pub mod descriptors;
 pub mod geometry;
 pub mod mesh;

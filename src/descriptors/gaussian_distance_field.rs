@@ -21,6 +21,20 @@ use crate::mesh::Mesh;
 /// Anything that gives the Gaussian distance field at a point of the normalized frame.
 pub trait GaussianField: Sync {
     fn value(&self, p: DVec3) -> f32;
+
+    /// Values at `center + radius * d` for each unit direction `d`. The grid overrides this
+    /// with a faster path; the result must equal calling `value` at each point.
+    fn values_on_sphere(
+        &self,
+        center: DVec3,
+        radius: f64,
+        directions: &[glam::Vec3],
+        out: &mut [f32],
+    ) {
+        for (o, d) in out.iter_mut().zip(directions) {
+            *o = self.value(center + d.as_dvec3() * radius);
+        }
+    }
 }
 
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -112,6 +126,26 @@ impl GridField {
     fn at(&self, x: usize, y: usize, z: usize) -> f32 {
         self.values[(z * self.resolution + y) * self.resolution + x]
     }
+
+    /// Trilinear value at grid coordinates `u` (voxel centres at integers).
+    #[inline]
+    fn trilinear(&self, u: glam::Vec3) -> f32 {
+        let limit = (self.resolution - 1) as f32;
+        if u.min_element() < 0.0 || u.max_element() >= limit {
+            return 0.0;
+        }
+        let (x, y, z) = (u.x as usize, u.y as usize, u.z as usize);
+        let (tx, ty, tz) = (u.x - x as f32, u.y - y as f32, u.z - z as f32);
+        let r = self.resolution;
+        let i = (z * r + y) * r + x;
+        let v = &self.values;
+        let lerp = |a: f32, b: f32, s: f32| a + (b - a) * s;
+        let c00 = lerp(v[i], v[i + 1], tx);
+        let c10 = lerp(v[i + r], v[i + r + 1], tx);
+        let c01 = lerp(v[i + r * r], v[i + r * r + 1], tx);
+        let c11 = lerp(v[i + r * r + r], v[i + r * r + r + 1], tx);
+        lerp(lerp(c00, c10, ty), lerp(c01, c11, ty), tz)
+    }
 }
 
 impl GaussianField for GridField {
@@ -131,6 +165,21 @@ impl GaussianField for GridField {
         let c01 = lerp(self.at(x, y, z + 1), self.at(x + 1, y, z + 1), tx);
         let c11 = lerp(self.at(x, y + 1, z + 1), self.at(x + 1, y + 1, z + 1), tx);
         lerp(lerp(c00, c10, ty), lerp(c01, c11, ty), tz)
+    }
+
+    fn values_on_sphere(
+        &self,
+        center: DVec3,
+        radius: f64,
+        directions: &[glam::Vec3],
+        out: &mut [f32],
+    ) {
+        // Grid coordinates in f32: at most 1024 voxels, so the error is ~1e-4 voxel.
+        let c = ((center - self.origin) / self.h - DVec3::splat(0.5)).as_vec3();
+        let s = (radius / self.h) as f32;
+        for (o, d) in out.iter_mut().zip(directions) {
+            *o = self.trilinear(c + *d * s);
+        }
     }
 }
 

@@ -1,0 +1,56 @@
+//! Helpers shared by the integration tests.
+#![allow(dead_code)]
+use std::path::{Path, PathBuf};
+
+use glam::{DMat3, DVec3};
+use meshgaze::mesh::{load_mesh, Mesh};
+
+pub fn repo_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// The bundled 8,171-vertex Stanford bunny.
+pub fn bunny() -> Mesh {
+    load_mesh(&repo_root().join("stimuli/meshes/bun_zipper_res2.ply"))
+        .expect("bundled bunny loads")
+        .0
+}
+
+/// The bundled 1,889-vertex bunny (Stanford's own decimation of the same scan).
+pub fn bunny_res3() -> Mesh {
+    load_mesh(&repo_root().join("stimuli/meshes/bun_zipper_res3.ply"))
+        .expect("bundled bunny res3 loads")
+        .0
+}
+
+/// `../shared/data` beside the repo, or None with a loud message: tests that need it then
+/// report that they did not run instead of passing silently.
+pub fn shared_data(test: &str) -> Option<PathBuf> {
+    let p = repo_root().join("../shared/data");
+    if p.join("meshes").is_dir() {
+        Some(p)
+    } else {
+        eprintln!(
+            "\n!!!! SKIPPED {test}: {} is missing. This test needs the shared real data; \
+             it did NOT run. !!!!\n",
+            p.display()
+        );
+        None
+    }
+}
+
+/// A rotation from three angles (deterministic, no RNG needed).
+pub fn rotation(a: f64, b: f64, c: f64) -> DMat3 {
+    DMat3::from_rotation_z(a) * DMat3::from_rotation_y(b) * DMat3::from_rotation_x(c)
+}
+
+pub fn transformed(mesh: &Mesh, f: impl Fn(DVec3) -> DVec3) -> Mesh {
+    Mesh {
+        positions: mesh.positions.iter().map(|&p| f(p)).collect(),
+        triangles: mesh.triangles.clone(),
+    }
+}
+
+pub fn read_file(path: &Path) -> Vec<u8> {
+    std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
