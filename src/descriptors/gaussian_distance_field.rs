@@ -187,11 +187,14 @@ fn seed_near_surface(
     tri: &mut [u32],
 ) {
     const SLAB: usize = 4;
-    const SEED_RADIUS: f64 = 1.0; // voxel units; > half a voxel diagonal (0.87)
+    // Voxel units. Above half a voxel diagonal (0.866), so the voxel holding any surface
+    // point is seeded and the transform never starts more than that from the surface.
+    const SEED_RADIUS: f64 = 0.9;
     let n_slabs = r.div_ceil(SLAB);
+    // Voxel centres i + 0.5 within [lo - R, hi + R].
     let range_of = |lo: f64, hi: f64| -> (usize, usize) {
-        let a = ((lo - 0.5 - SEED_RADIUS).floor().max(0.0)) as usize;
-        let b = ((hi - 0.5 + SEED_RADIUS).ceil().min((r - 1) as f64)).max(0.0) as usize;
+        let a = (lo - 0.5 - SEED_RADIUS).ceil().max(0.0) as usize;
+        let b = ((hi - 0.5 + SEED_RADIUS).floor().min((r - 1) as f64)).max(0.0) as usize;
         (a, b)
     };
     let boxes: Vec<[(usize, usize); 3]> = (0..mesh.triangles.len())
@@ -226,11 +229,16 @@ fn seed_near_surface(
             let z_end = (z_begin + SLAB).min(r);
             for &t in &by_slab[s] {
                 let [a, b, c] = mesh.triangle(t as usize).map(|p| (p - origin) / h);
+                let normal = (b - a).cross(c - a).normalize_or_zero();
                 let [bx, by, bz] = boxes[t as usize];
                 for z in bz.0.max(z_begin)..=bz.1.min(z_end - 1) {
                     for y in by.0..=by.1 {
                         for x in bx.0..=bx.1 {
                             let p = DVec3::new(x as f64 + 0.5, y as f64 + 0.5, z as f64 + 0.5);
+                            // The plane is never farther than the triangle: a cheap rejection.
+                            if normal.dot(p - a).abs() > SEED_RADIUS {
+                                continue;
+                            }
                             let q = closest_point_on_triangle(p, a, b, c);
                             let dd = (p - q).length_squared();
                             let i = ((z - z_begin) * r + y) * r + x;
