@@ -83,6 +83,19 @@ pub fn load_mesh(path: &Path) -> Result<(Mesh, LoadReport), MeshError> {
 }
 
 /// Parses mesh bytes already in memory; `path` is used only in messages.
+///
+/// ```
+/// use meshgaze::mesh::{parse_mesh_bytes, MeshFormat};
+/// let off = b"OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 2\n";
+/// let (mesh, report) = parse_mesh_bytes(off, "square.off".as_ref(), MeshFormat::Off).unwrap();
+/// assert_eq!(mesh.positions.len(), 4);     // every vertex kept, in file order
+/// assert_eq!(mesh.triangles.len(), 1);     // the face with a repeated corner is skipped...
+/// assert_eq!(report.faces_with_repeated_vertex, 1); // ...and counted
+/// assert_eq!(report.unreferenced_vertices, 1);
+///
+/// let err = parse_mesh_bytes(b"v 0 0 0\nv 1 x 0\n", "bad.obj".as_ref(), MeshFormat::Obj).unwrap_err();
+/// assert_eq!(err.to_string(), "bad.obj:2:5: expected a number for the y coordinate of vertex 2, found `x`");
+/// ```
 pub fn parse_mesh_bytes(
     bytes: &[u8],
     path: &Path,

@@ -27,6 +27,12 @@ pub fn lorenz_curve(values: &[f64]) -> Option<Vec<(f64, f64)>> {
 }
 
 /// Gini index in [0, 1); NaN for an empty map or one with negative or non-finite values.
+///
+/// ```
+/// use meshgaze::metrics::gini_index;
+/// assert_eq!(gini_index(&[1.0, 1.0, 1.0, 1.0]), 0.0);
+/// assert!((gini_index(&[0.0, 0.0, 0.0, 5.0]) - 0.75).abs() < 1e-12);
+/// ```
 pub fn gini_index(values: &[f64]) -> f64 {
     match lorenz_curve(values) {
         Some(curve) if curve.len() > 1 => {
