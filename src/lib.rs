@@ -8,6 +8,7 @@
 pub mod corruption;
 pub mod descriptors;
 pub mod geometry;
+pub mod mean_curvature;
 pub mod mesh;
 pub mod metrics;
 pub mod progress;

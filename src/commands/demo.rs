@@ -6,7 +6,9 @@ use clap::Args;
 use meshgaze::mesh::{parse_mesh_bytes, MeshFormat};
 use meshgaze::provenance::InputFile;
 
-use super::saliency::{compute_and_write, Method, SaliencyArgs, SmsArgs};
+use meshgaze::saliency::Method;
+
+use super::saliency::{compute_and_write, SaliencyArgs, SmsArgs};
 
 /// The Stanford bunny (8,171 vertices) compiled into the binary, so the demo needs no files.
 const BUNNY: &[u8] = include_bytes!("../../stimuli/meshes/bun_zipper_res2.ply");
@@ -51,8 +53,8 @@ pub fn run(args: DemoArgs) -> Result<()> {
     println!(
         "meshgaze demo: sparse metric-based saliency of the Stanford bunny ({} vertices) in {:.2} s, Gini {:.3}.",
         mesh.positions.len(),
-        result.report.timings.total_s,
-        result.report.gini_vertices
+        result.seconds,
+        result.gini
     );
     println!("Outputs in {}/:", args.output.display());
     println!("  bunny_sms.ply   open in MeshLab (Render > Color > Per Vertex): red = salient");

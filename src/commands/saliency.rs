@@ -2,26 +2,21 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
-use clap::{Args, ValueEnum};
+use clap::Args;
 use serde::Serialize;
 
 use meshgaze::descriptors::{DescriptorNormalization, DescriptorParams, GridParams, ShellWeight};
 use meshgaze::geometry::BoundingBox;
 use meshgaze::mesh::{load_mesh, write_ply_with_quality, LoadReport, Mesh};
+use meshgaze::metrics::gini_index;
 use meshgaze::provenance::{InputFile, Provenance};
 use meshgaze::saliency::gaussian_interpolation::InterpolationKind;
-use meshgaze::saliency::sparse_metric_saliency::SmsReport;
 use meshgaze::saliency::truncated_power::PowerParams;
-use meshgaze::saliency::{sparse_metric_saliency, FieldKind, SmsExtras, SmsParams, SmsResult};
+use meshgaze::saliency::{
+    compute_saliency, sparse_metric_saliency, FieldKind, Method, SmsExtras, SmsParams,
+};
 
 use super::progress_bar::Bars;
-
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum Method {
-    /// Sparse metric-based saliency (Hu et al. 2020).
-    Sms,
-}
 
 /// Compute a per-vertex saliency map of a mesh.
 ///
@@ -31,8 +26,10 @@ pub enum Method {
 /// SHA-256, timings, Gini index). Reads OBJ, PLY (ascii/binary, tristrips) and OFF, each
 /// optionally gzipped.
 ///
-/// Defaults are the paper's (Hu et al., Neurocomputing 2020). Choices the paper leaves open
-/// have flags too; see docs/sms.md.
+/// Methods: sms (sparse metric-based saliency, Hu et al., Neurocomputing 2020; the default),
+/// ms (Lee et al. 2005 mesh saliency), mc (magnitude of mean curvature). SMS defaults are the
+/// paper's; choices the paper leaves open have flags too (docs/sms.md). The --per-sample,
+/// --per-scale and --dense outputs exist for sms only.
 #[derive(Debug, Args)]
 pub struct SaliencyArgs {
     /// The mesh (.obj, .ply, .off, optionally .gz).
@@ -151,12 +148,20 @@ impl SmsArgs {
 struct Sidecar<'a> {
     provenance: Provenance,
     method: Method,
-    parameters: &'a SmsParams,
+    /// SMS parameters (for sms only; other methods report theirs in `report`).
+    parameters: Option<&'a SmsParams>,
     mesh: &'a LoadReport,
-    report: &'a SmsReport,
+    report: serde_json::Value,
     gini_index: f64,
+    seconds: f64,
     extra_maps: Vec<(String, f64)>,
     outputs: Vec<String>,
+}
+
+/// What one run produced, for callers that summarize.
+pub struct SaliencyRun {
+    pub gini: f64,
+    pub seconds: f64,
 }
 
 /// `PREFIX` without a trailing .csv/.ply/.json, so `-o out.csv` means prefix `out`.
@@ -186,22 +191,39 @@ pub fn write_map_csv(path: &Path, values: &[f64]) -> Result<()> {
     Ok(())
 }
 
-/// Computes and writes everything for one mesh; returns the result for callers that report.
+/// Computes and writes everything for one mesh; returns the map for callers that report.
 pub fn compute_and_write(
     mesh_path: &Path,
     mesh: &Mesh,
     load: &LoadReport,
     input: InputFile,
     args: &SaliencyArgs,
-) -> Result<SmsResult> {
+) -> Result<SaliencyRun> {
     let params = args.sms.params();
     let bars = Bars::new(args.quiet);
-    let extras = SmsExtras {
-        per_scale: args.per_scale,
-        dense: args.dense,
+    let fail = |e: String| anyhow::anyhow!("{}: {e}", mesh_path.display());
+    let wants_extras = args.per_sample || args.per_scale || args.dense;
+    if wants_extras && args.method != Method::Sms {
+        bail!("--per-sample, --per-scale and --dense apply to --method sms only");
+    }
+    let (values, report, seconds, sms_result) = if args.method == Method::Sms {
+        let extras = SmsExtras {
+            per_scale: args.per_scale,
+            dense: args.dense,
+        };
+        let r = sparse_metric_saliency(mesh, &params, extras, &bars).map_err(fail)?;
+        let report = serde_json::to_value(&r.report)?;
+        (
+            r.vertex_saliency.clone(),
+            report,
+            r.report.timings.total_s,
+            Some(r),
+        )
+    } else {
+        let out = compute_saliency(args.method, mesh, &params, &bars).map_err(fail)?;
+        (out.values, out.report, out.seconds, None)
     };
-    let result = sparse_metric_saliency(mesh, &params, extras, &bars)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", mesh_path.display()))?;
+    let gini = gini_index(&values);
     let prefix = output_prefix(&args.output);
     if let Some(dir) = prefix.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
@@ -209,76 +231,88 @@ pub fn compute_and_write(
     }
     let mut outputs = Vec::new();
     let csv = with_suffix(&prefix, ".csv");
-    write_map_csv(&csv, &result.vertex_saliency)?;
+    write_map_csv(&csv, &values)?;
     outputs.push(csv.display().to_string());
     let comments = vec![
         format!(
-            "meshgaze {} sms saliency of {}",
+            "meshgaze {} {} saliency of {}",
             env!("CARGO_PKG_VERSION"),
+            args.method.name(),
             mesh_path.display()
         ),
         format!("input sha256 {}", input.sha256),
         "quality = saliency in [0,1]; colour ramp blue (low) to red (high)".to_string(),
     ];
     let ply = with_suffix(&prefix, ".ply");
-    write_ply_with_quality(&ply, mesh, &result.vertex_saliency, &comments)
+    write_ply_with_quality(&ply, mesh, &values, &comments)
         .with_context(|| format!("cannot write {}", ply.display()))?;
     outputs.push(ply.display().to_string());
-    if args.per_sample {
-        let path = with_suffix(&prefix, ".samples.csv");
-        let mut out = std::io::BufWriter::new(std::fs::File::create(&path)?);
-        writeln!(out, "sample,x,y,z,saliency")?;
-        for (i, (p, s)) in result
-            .sample_points
-            .iter()
-            .zip(&result.sample_saliency)
-            .enumerate()
-        {
-            writeln!(out, "{i},{},{},{},{s}", p.x, p.y, p.z)?;
+    let mut extra_maps = Vec::new();
+    if let Some(result) = &sms_result {
+        if args.per_sample {
+            let path = with_suffix(&prefix, ".samples.csv");
+            let mut out = std::io::BufWriter::new(std::fs::File::create(&path)?);
+            writeln!(out, "sample,x,y,z,saliency")?;
+            for (i, (p, s)) in result
+                .sample_points
+                .iter()
+                .zip(&result.sample_saliency)
+                .enumerate()
+            {
+                writeln!(out, "{i},{},{},{},{s}", p.x, p.y, p.z)?;
+            }
+            out.flush()?;
+            outputs.push(path.display().to_string());
         }
-        out.flush()?;
-        outputs.push(path.display().to_string());
-    }
-    for extra in &result.extras {
-        let base = with_suffix(&prefix, &format!(".{}", extra.name));
-        let c = with_suffix(&base, ".csv");
-        write_map_csv(&c, &extra.vertex_saliency)?;
-        let p = with_suffix(&base, ".ply");
-        write_ply_with_quality(&p, mesh, &extra.vertex_saliency, &comments)?;
-        outputs.push(c.display().to_string());
-        outputs.push(p.display().to_string());
+        for extra in &result.extras {
+            let base = with_suffix(&prefix, &format!(".{}", extra.name));
+            let c = with_suffix(&base, ".csv");
+            write_map_csv(&c, &extra.vertex_saliency)?;
+            let p = with_suffix(&base, ".ply");
+            write_ply_with_quality(&p, mesh, &extra.vertex_saliency, &comments)?;
+            outputs.push(c.display().to_string());
+            outputs.push(p.display().to_string());
+            extra_maps.push((extra.name.clone(), extra.gini));
+        }
     }
     let json = with_suffix(&prefix, ".json");
     outputs.push(json.display().to_string());
     let sidecar = Sidecar {
         provenance: Provenance::new(vec![input]),
         method: args.method,
-        parameters: &params,
+        parameters: (args.method == Method::Sms).then_some(&params),
         mesh: load,
-        report: &result.report,
-        gini_index: result.report.gini_vertices,
-        extra_maps: result
-            .extras
-            .iter()
-            .map(|e| (e.name.clone(), e.gini))
-            .collect(),
+        report,
+        gini_index: gini,
+        seconds,
+        extra_maps,
         outputs,
     };
     std::fs::write(&json, serde_json::to_string_pretty(&sidecar)? + "\n")
         .with_context(|| format!("cannot write {}", json.display()))?;
     if !args.quiet {
-        let t = &result.report.timings;
         eprintln!(
-            "{}: {} vertices, {} triangles; SMS in {:.2} s (A {:.2} s, B {:.2} s, C {:.2} s); Gini {:.3}",
+            "{}: {} vertices, {} triangles; {} in {:.2} s; Gini {:.3}",
             mesh_path.display(),
             mesh.positions.len(),
             mesh.triangles.len(),
-            t.total_s,
-            t.a_metric_s,
-            t.b_saliency_s,
-            t.c_interpolation_s,
-            result.report.gini_vertices
+            args.method.name(),
+            seconds,
+            gini
         );
+        if let Some(r) = &sms_result {
+            let t = &r.report.timings;
+            eprintln!(
+                "  steps: A metric {:.2} s, B saliency {:.2} s, C interpolation {:.2} s",
+                t.a_metric_s, t.b_saliency_s, t.c_interpolation_s
+            );
+            if !r.report.truncated_power.converged {
+                eprintln!(
+                    "  warning: the truncated power method stopped at the iteration cap ({}) before converging",
+                    r.report.truncated_power.iterations
+                );
+            }
+        }
         let skipped = load.faces_with_repeated_vertex + load.zero_area_faces;
         if skipped > 0 || load.unreferenced_vertices > 0 {
             eprintln!(
@@ -286,15 +320,9 @@ pub fn compute_and_write(
                 skipped, load.faces_with_repeated_vertex, load.zero_area_faces, load.unreferenced_vertices
             );
         }
-        if !result.report.truncated_power.converged {
-            eprintln!(
-                "  warning: the truncated power method stopped at the iteration cap ({}) before converging",
-                result.report.truncated_power.iterations
-            );
-        }
         eprintln!("wrote {}", sidecar.outputs.join(", "));
     }
-    Ok(result)
+    Ok(SaliencyRun { gini, seconds })
 }
 
 pub fn run(args: SaliencyArgs) -> Result<()> {
