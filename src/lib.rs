@@ -8,6 +8,7 @@
 pub mod corruption;
 pub mod descriptors;
 pub mod geometry;
+pub mod ground_truth;
 pub mod mean_curvature;
 pub mod mesh;
 pub mod metrics;
@@ -15,3 +16,4 @@ pub mod progress;
 pub mod provenance;
 pub mod saliency;
 pub mod sampling;
+pub mod scoring;

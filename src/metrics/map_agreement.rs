@@ -1,0 +1,98 @@
+//! Agreement between a saliency map and a human map on the same vertices (cvzoya's
+//! saliency benchmark definitions, carried to meshes with optional per-vertex weights).
+
+fn weight(weights: Option<&[f64]>, i: usize) -> f64 {
+    weights.map_or(1.0, |w| w[i])
+}
+
+fn weighted_mean_std(x: &[f64], weights: Option<&[f64]>) -> (f64, f64) {
+    let total: f64 = (0..x.len()).map(|i| weight(weights, i)).sum();
+    let mean = (0..x.len()).map(|i| weight(weights, i) * x[i]).sum::<f64>() / total;
+    let var = (0..x.len())
+        .map(|i| weight(weights, i) * (x[i] - mean).powi(2))
+        .sum::<f64>()
+        / total;
+    (mean, var.sqrt())
+}
+
+/// Linear correlation coefficient (Pearson), weighted; NaN if either map is constant.
+pub fn lcc(s: &[f64], h: &[f64], weights: Option<&[f64]>) -> f64 {
+    assert_eq!(s.len(), h.len());
+    let (ms, ss) = weighted_mean_std(s, weights);
+    let (mh, sh) = weighted_mean_std(h, weights);
+    if ss == 0.0 || sh == 0.0 {
+        return f64::NAN;
+    }
+    let total: f64 = (0..s.len()).map(|i| weight(weights, i)).sum();
+    (0..s.len())
+        .map(|i| weight(weights, i) * (s[i] - ms) * (h[i] - mh))
+        .sum::<f64>()
+        / total
+        / (ss * sh)
+}
+
+/// Normalized scanpath saliency: the z-scored map averaged over fixations (a vertex fixated
+/// twice counts twice). NaN for a constant map.
+pub fn nss(s: &[f64], fixated: &[usize], weights: Option<&[f64]>) -> f64 {
+    let (m, sd) = weighted_mean_std(s, weights);
+    if sd == 0.0 || fixated.is_empty() {
+        return f64::NAN;
+    }
+    fixated.iter().map(|&i| (s[i] - m) / sd).sum::<f64>() / fixated.len() as f64
+}
+
+fn as_distribution(x: &[f64], weights: Option<&[f64]>) -> Option<Vec<f64>> {
+    let v: Vec<f64> = (0..x.len())
+        .map(|i| weight(weights, i) * x[i].max(0.0))
+        .collect();
+    let total: f64 = v.iter().sum();
+    (total > 0.0).then(|| v.iter().map(|a| a / total).collect())
+}
+
+/// Similarity (histogram intersection) of the two maps as distributions, in [0, 1].
+pub fn sim(s: &[f64], h: &[f64], weights: Option<&[f64]>) -> f64 {
+    match (as_distribution(s, weights), as_distribution(h, weights)) {
+        (Some(p), Some(q)) => p.iter().zip(&q).map(|(a, b)| a.min(*b)).sum(),
+        _ => f64::NAN,
+    }
+}
+
+/// Kullback–Leibler divergence KL(h ‖ s) of the maps as distributions, with cvzoya's
+/// regularizer ε = 2.2204e-16: Σ h log(ε + h / (s + ε)). 0 when equal; lower is better.
+pub fn kl_divergence(s: &[f64], h: &[f64], weights: Option<&[f64]>) -> f64 {
+    const EPS: f64 = 2.2204e-16;
+    match (as_distribution(s, weights), as_distribution(h, weights)) {
+        (Some(p), Some(q)) => q
+            .iter()
+            .zip(&p)
+            .map(|(qi, pi)| qi * (EPS + qi / (pi + EPS)).ln())
+            .sum(),
+        _ => f64::NAN,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hand_computed_values() {
+        let s = [1.0, 2.0, 3.0, 4.0];
+        assert!((lcc(&s, &s, None) - 1.0).abs() < 1e-15);
+        assert!((lcc(&s, &[4.0, 3.0, 2.0, 1.0], None) + 1.0).abs() < 1e-15);
+        assert!(lcc(&s, &[1.0; 4], None).is_nan());
+        // z-scores of 1..4: mean 2.5, sd √1.25; at vertex 3: 1.5/√1.25.
+        assert!((nss(&s, &[3], None) - 1.5 / 1.25f64.sqrt()).abs() < 1e-12);
+        assert!((sim(&s, &s, None) - 1.0).abs() < 1e-15);
+        assert!((sim(&[1.0, 0.0], &[0.0, 1.0], None)).abs() < 1e-15);
+        assert!(kl_divergence(&s, &s, None).abs() < 1e-12);
+        // KL([½,½] ‖ [¾,¼]) = ½ ln(2/3) + ½ ln 2
+        let kl = kl_divergence(&[3.0, 1.0], &[1.0, 1.0], None);
+        assert!((kl - (0.5 * (2.0f64 / 3.0).ln() + 0.5 * 2f64.ln())).abs() < 1e-12);
+        // Weights act like repeated vertices.
+        let w = [2.0, 1.0, 1.0];
+        let a = lcc(&[1.0, 2.0, 5.0], &[2.0, 1.0, 7.0], Some(&w));
+        let b = lcc(&[1.0, 1.0, 2.0, 5.0], &[2.0, 2.0, 1.0, 7.0], None);
+        assert!((a - b).abs() < 1e-12);
+    }
+}

@@ -1,0 +1,169 @@
+//! Ground-truth readers and the scoring engine on constructed cases with known answers.
+mod common;
+
+use std::path::{Path, PathBuf};
+
+use meshgaze::ground_truth::{load_ground_truth, GroundTruth, TruthError};
+use meshgaze::progress::Silent;
+use meshgaze::scoring::{score_mesh, ScoreParams, CHANCE, HUMAN};
+use proptest::prelude::*;
+
+fn write(name: &str, text: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("meshgaze-truth-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+fn at(r: Result<GroundTruth, TruthError>) -> (usize, usize, String) {
+    match r {
+        Err(TruthError::At {
+            line,
+            column,
+            message,
+            ..
+        }) => (line, column, message),
+        other => panic!("expected a positioned error, got {other:?}"),
+    }
+}
+
+#[test]
+fn vertex_maps_with_and_without_flags_and_headers() {
+    let GroundTruth::VertexMap(m) =
+        load_ground_truth(&write("a.txt", "0 0\n2.5 1\n1 0\n"), 3, 0.05).unwrap()
+    else {
+        panic!()
+    };
+    assert_eq!(m.values, vec![0.0, 2.5, 1.0]);
+    assert_eq!(m.positive, vec![false, true, false]);
+    let GroundTruth::VertexMap(m) = load_ground_truth(
+        &write("b.csv", "vertex,saliency\n2,0.1\n0,0.9\n1,0.5\n"),
+        3,
+        0.34,
+    )
+    .unwrap() else {
+        panic!()
+    };
+    assert_eq!(m.values, vec![0.9, 0.5, 0.1]);
+    assert_eq!(m.positive, vec![true, false, false]); // top 34% of 3 = 1 vertex
+    assert!(m.positive_rule.contains("top"));
+    let err = load_ground_truth(&write("c.txt", "1\n2\n"), 3, 0.05).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("1 of the mesh's 3 vertices have no value"),
+        "{err}"
+    );
+    let (line, col, msg) = at(load_ground_truth(&write("d.txt", "1 0\n2 x\n"), 2, 0.05));
+    assert_eq!((line, col), (2, 3), "{msg}");
+    let (line, _, msg) = at(load_ground_truth(&write("e.txt", "1\n2\n3\n"), 2, 0.05));
+    assert_eq!(line, 3, "{msg}");
+}
+
+#[test]
+fn fixation_sets_count_what_missed_the_mesh() {
+    let text = "subject,fixation,vertex,fate\ns1,0,2,hit\ns1,1,0,background\ns2,0,1,snapped\ns2,1,1,hit\ns3,0,0,off-screen\n";
+    let GroundTruth::Fixations(f) = load_ground_truth(&write("f.csv", text), 3, 0.05).unwrap()
+    else {
+        panic!()
+    };
+    assert_eq!(f.rows, 5);
+    assert_eq!(f.fixations.len(), 3);
+    assert_eq!(f.subjects, vec!["s1", "s2"]);
+    assert_eq!(f.rows_not_on_mesh.get("background"), Some(&1));
+    assert_eq!(f.rows_not_on_mesh.get("off-screen"), Some(&1));
+    let (line, col, msg) = at(load_ground_truth(
+        &write("g.csv", "subject,vertex\ns1,7\n"),
+        3,
+        0.05,
+    ));
+    assert_eq!((line, col), (2, 4), "{msg}");
+}
+
+#[test]
+fn shared_vr_truth_files_read_with_their_flags() {
+    let Some(data) = common::shared_data("shared_vr_truth_files_read_with_their_flags") else {
+        return;
+    };
+    let truth = data.join("fixations-vr/truth/bunny_objorder_time_bin.txt.gz");
+    let GroundTruth::VertexMap(m) = load_ground_truth(&truth, 20_000, 0.05).unwrap() else {
+        panic!()
+    };
+    let positives = m.positive.iter().filter(|p| **p).count();
+    assert!((900..=1100).contains(&positives), "{positives} positives");
+    assert!(m.positive_rule.contains("flag"));
+}
+
+/// A planted case: fixations on one end of a cylinder, maps that know it, do not, or invert it.
+#[test]
+fn scoring_ranks_a_perfect_map_above_chance_and_an_inverted_one_below() {
+    let mesh = common::bunny_res3();
+    let n = mesh.positions.len();
+    // "Subjects" look at the vertices highest in y (the ears).
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| mesh.positions[b].y.total_cmp(&mesh.positions[a].y));
+    let mut text = String::from("subject,vertex\n");
+    for (k, v) in order.iter().take(120).enumerate() {
+        text.push_str(&format!("s{},{v}\n", k % 8));
+    }
+    let truth = load_ground_truth(&write("planted.csv", &text), n, 0.05).unwrap();
+    let height: Vec<f64> = mesh.positions.iter().map(|p| p.y).collect();
+    let inverted: Vec<f64> = height.iter().map(|v| -v).collect();
+    let params = ScoreParams {
+        blur_sigmas: vec![0.0, 0.05],
+        borji_splits: 20,
+        ..ScoreParams::default()
+    };
+    let maps = vec![
+        ("height".to_string(), height),
+        ("inverted".to_string(), inverted),
+    ];
+    let score = score_mesh(&mesh, &truth, &maps, &params, &Silent);
+    let get = |method: &str, metric: &str, blur: f64| {
+        score
+            .rows
+            .iter()
+            .find(|r| r.method == method && r.metric == metric && r.blur == blur)
+            .unwrap()
+            .value
+    };
+    assert_eq!(score.human_splits, 70);
+    assert!(get("height", "auc_judd", 0.0) > 0.99);
+    assert!(get("inverted", "auc_judd", 0.0) < 0.01);
+    let chance = get(CHANCE, "auc_judd", 0.0);
+    assert!((chance - 0.5).abs() < 0.06, "chance {chance}");
+    assert!(
+        get(HUMAN, "auc_judd", 0.05) > 0.9,
+        "human {}",
+        get(HUMAN, "auc_judd", 0.05)
+    );
+    assert!(get("height", "lcc", 0.05) > 0.3);
+    assert!(get("height", "nss", 0.0) > 1.5);
+    let summary = score
+        .summaries
+        .iter()
+        .find(|s| s.method == "height")
+        .unwrap();
+    assert!(summary.auc_judd_peak >= summary.auc_judd_unblurred);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(300))]
+    #[test]
+    fn arbitrary_truth_files_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..300), n in 1usize..6) {
+        let p = write(&format!("fuzz-{n}.txt"), "");
+        std::fs::write(&p, &bytes).unwrap();
+        let _ = load_ground_truth(Path::new(&p), n, 0.5);
+    }
+
+    #[test]
+    fn mutated_fixation_files_never_panic(pos in any::<usize>(), byte in any::<u8>(), cut in any::<usize>()) {
+        let mut b = b"subject,fixation,vertex,fate\ns1,0,2,hit\ns2,1,0,background\n".to_vec();
+        let i = pos % b.len();
+        b[i] = byte;
+        b.truncate(cut % (b.len() + 1));
+        let p = write("fuzz-fix.csv", "");
+        std::fs::write(&p, &b).unwrap();
+        let _ = load_ground_truth(&p, 3, 0.5);
+    }
+}
