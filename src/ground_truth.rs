@@ -293,8 +293,8 @@ pub fn load_ground_truth(
                 .copied()
                 .ok_or_else(|| at(no + 1, line.len() + 1, "missing flag".into()))?;
             fl[vertex] = match t.parse::<f64>() {
-                Ok(x) if x == 0.0 => false,
-                Ok(x) if x == 1.0 => true,
+                Ok(0.0) => false,
+                Ok(1.0) => true,
                 _ => return Err(at(no + 1, col, format!("expected a 0/1 flag, found `{t}`"))),
             };
         }

@@ -17,8 +17,8 @@ pub fn auc_judd(saliency: &[f64], positive: &[bool], weights: Option<&[f64]>) ->
     let mut order: Vec<usize> = (0..saliency.len()).collect();
     order.sort_by(|&a, &b| saliency[a].total_cmp(&saliency[b]));
     let (mut total_pos, mut total_neg) = (0.0, 0.0);
-    for i in 0..saliency.len() {
-        if positive[i] {
+    for (i, &is_positive) in positive.iter().enumerate() {
+        if is_positive {
             total_pos += w(i);
         } else {
             total_neg += w(i);
