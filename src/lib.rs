@@ -17,3 +17,4 @@ pub mod provenance;
 pub mod saliency;
 pub mod sampling;
 pub mod scoring;
+pub mod simplification;

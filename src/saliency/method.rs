@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use super::lee_mesh_saliency::{lee_mesh_saliency, LeeParams};
 use super::mean_curvature_saliency::mean_curvature_saliency;
+use super::spectral_irregularity::{spectral_irregularity, SpectralParams};
 use super::{sparse_metric_saliency, SmsExtras, SmsParams};
 use crate::mesh::Mesh;
 use crate::progress::Progress;
@@ -18,6 +19,8 @@ pub enum Method {
     Ms,
     /// Magnitude of mean curvature (Meyer et al. 2003 cotangent estimator).
     Mc,
+    /// Spectral irregularity of Song et al. 2014, on a simplified copy.
+    Si,
 }
 
 impl Method {
@@ -26,6 +29,7 @@ impl Method {
             Method::Sms => "sms",
             Method::Ms => "ms",
             Method::Mc => "mc",
+            Method::Si => "si",
         }
     }
 }
@@ -60,6 +64,13 @@ pub fn compute_saliency(
         Method::Mc => {
             let (v, r) = mean_curvature_saliency(mesh);
             (v, serde_json::to_value(&r))
+        }
+        Method::Si => {
+            progress.start("SI (Song 2014)", 0);
+            let params = SpectralParams::default();
+            let (v, r) = spectral_irregularity(mesh, &params)?;
+            progress.finish();
+            (v, serde_json::to_value((&params, &r)))
         }
     };
     Ok(MethodOutput {

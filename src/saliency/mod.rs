@@ -5,6 +5,7 @@ pub mod lee_mesh_saliency;
 pub mod mean_curvature_saliency;
 pub mod method;
 pub mod sparse_metric_saliency;
+pub mod spectral_irregularity;
 pub mod truncated_power;
 
 pub use method::{compute_saliency, Method, MethodOutput};
