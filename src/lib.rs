@@ -12,6 +12,7 @@ pub mod ground_truth;
 pub mod mean_curvature;
 pub mod mesh;
 pub mod metrics;
+pub mod plot;
 pub mod progress;
 pub mod provenance;
 pub mod saliency;
