@@ -174,6 +174,16 @@ pub fn run(args: BenchArgs) -> Result<()> {
             r.peak_rss_mb
         );
     }
+    for r in &rows {
+        if !r.baselines.is_empty() {
+            println!("\nOther methods on {} (total seconds; the paper's Table 3 beside):\n", r.name);
+            println!("| method | seconds | paper (s) | speed-up |");
+            println!("|---|---:|---:|---:|");
+            for (m, secs, paper) in &r.baselines {
+                println!("| {m} | {secs:.3} | {paper} | {:.0}x |", paper / secs);
+            }
+        }
+    }
     println!(
         "\nLoading (not counted above): {}",
         rows.iter()
