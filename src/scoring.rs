@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::geometry::{BoundingBox, Normalization};
 use crate::ground_truth::GroundTruth;
 use crate::mesh::Mesh;
-use crate::metrics::surface_blur::{vertex_areas, SurfaceBlur};
+use crate::metrics::surface_blur::{vertex_areas, BlurKernel, HeatBlur, SurfaceBlur};
 use crate::metrics::{auc_borji, auc_judd, gini_index, kl_divergence, lcc, nss, sim};
 use crate::progress::Progress;
 
@@ -33,6 +33,7 @@ pub struct ScoreParams {
     /// Random split-halves when a set has more than 8 subjects (else all splits).
     pub human_random_splits: usize,
     pub bounding_box: BoundingBox,
+    pub kernel: BlurKernel,
 }
 
 impl Default for ScoreParams {
@@ -44,6 +45,7 @@ impl Default for ScoreParams {
             seed: 1,
             human_random_splits: 100,
             bounding_box: BoundingBox::Oriented,
+            kernel: BlurKernel::Euclidean,
         }
     }
 }
@@ -147,14 +149,22 @@ pub fn score_mesh(
     maps: &[(String, Vec<f64>)],
     params: &ScoreParams,
     progress: &dyn Progress,
-) -> MeshScore {
+) -> Result<MeshScore, String> {
     let n = mesh.positions.len();
     let norm = Normalization::of_mesh(mesh, params.bounding_box);
     let areas = vertex_areas(mesh);
-    let blur = SurfaceBlur::new(
-        mesh.positions.iter().map(|&p| norm.apply(p)).collect(),
-        areas.clone(),
-    );
+    let normalized = norm.normalized_mesh(mesh);
+    enum Blur {
+        Euclidean(SurfaceBlur),
+        Heat(HeatBlur),
+    }
+    let blur = match params.kernel {
+        BlurKernel::Euclidean => Blur::Euclidean(SurfaceBlur::new(
+            normalized.positions.clone(),
+            vertex_areas(&normalized),
+        )),
+        BlurKernel::Heat => Blur::Heat(HeatBlur::new(&normalized)),
+    };
     let weights = (params.weighting == Weighting::Area).then_some(areas.as_slice());
     let positive = truth.positive(n);
     let fixated = truth.fixated();
@@ -185,7 +195,10 @@ pub fn score_mesh(
         let mut inputs: Vec<&[f64]> = maps.iter().map(|(_, m)| m.as_slice()).collect();
         inputs.push(&chance);
         inputs.extend(subject_counts.iter().map(|c| c.as_slice()));
-        let blurred = blur.blur(&inputs, sigma);
+        let blurred = match &blur {
+            Blur::Euclidean(b) => b.blur(&inputs, sigma),
+            Blur::Heat(b) => b.blur(&inputs, sigma)?,
+        };
         let (method_maps, rest) = blurred.split_at(maps.len());
         let (chance_map, subject_maps) = rest.split_first().expect("chance map");
         let density: Vec<f64> = match truth {
@@ -294,13 +307,13 @@ pub fn score_mesh(
             }
         })
         .collect();
-    MeshScore {
+    Ok(MeshScore {
         rows,
         summaries,
         human_splits: splits.len(),
         positives: positive.iter().filter(|p| **p).count(),
         fixations: fixated.len(),
-    }
+    })
 }
 
 #[cfg(test)]

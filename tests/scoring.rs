@@ -118,7 +118,7 @@ fn scoring_ranks_a_perfect_map_above_chance_and_an_inverted_one_below() {
         ("height".to_string(), height),
         ("inverted".to_string(), inverted),
     ];
-    let score = score_mesh(&mesh, &truth, &maps, &params, &Silent);
+    let score = score_mesh(&mesh, &truth, &maps, &params, &Silent).unwrap();
     let get = |method: &str, metric: &str, blur: f64| {
         score
             .rows

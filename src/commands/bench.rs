@@ -176,7 +176,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
     }
     for r in &rows {
         if !r.baselines.is_empty() {
-            println!("\nOther methods on {} (total seconds; the paper's Table 3 beside):\n", r.name);
+            println!(
+                "\nOther methods on {} (total seconds; the paper's Table 3 beside):\n",
+                r.name
+            );
             println!("| method | seconds | paper (s) | speed-up |");
             println!("|---|---:|---:|---:|");
             for (m, secs, paper) in &r.baselines {

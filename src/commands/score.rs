@@ -7,6 +7,7 @@ use serde::Serialize;
 
 use meshgaze::ground_truth::{load_ground_truth, GroundTruth};
 use meshgaze::mesh::{load_mesh, LoadReport, MeshFormat};
+use meshgaze::metrics::surface_blur::BlurKernel;
 use meshgaze::metrics::{gini_index, lorenz_curve};
 use meshgaze::plot::{line_chart_png, Chart, Series, PALETTE};
 use meshgaze::provenance::{InputFile, Provenance};
@@ -26,7 +27,8 @@ use super::progress_bar::Bars;
 /// or .csv, paired by name.
 ///
 /// Every map is blurred over the surface at σ_b = 0, 0.01, …, 0.2 (normalized units: half the
-/// bounding-box diagonal = 1; Euclidean Gaussian, area-weighted, cut at 3σ) and scored with
+/// bounding-box diagonal = 1; Euclidean Gaussian, area-weighted, cut at 3σ, or heat diffusion
+/// along the surface with --kernel heat) and scored with
 /// AUC-Judd (ties split evenly), AUC-Borji (seeded), LCC, NSS, SIM, KL and the Gini index,
 /// beside a seeded random map blurred the same way ("chance") and, for fixation sets with
 /// subject ids, the split-half human ceiling ("human"). Ground-truth formats:
@@ -63,6 +65,9 @@ pub struct ScoreArgs {
     /// How vertices count in the metrics.
     #[arg(long, value_enum, default_value_t = Weighting::Vertex)]
     pub weighting: Weighting,
+    /// Blur kernel: euclidean (Gaussian, kd-tree) or heat (diffusion along the surface).
+    #[arg(long, value_enum, default_value_t = BlurKernel::Euclidean)]
+    pub kernel: BlurKernel,
     /// For per-vertex truth maps without a 0/1 column: the top fraction of vertices by value
     /// taken as fixated.
     #[arg(long, default_value_t = 0.05)]
@@ -195,6 +200,7 @@ pub fn run(args: ScoreArgs) -> Result<()> {
     let params = ScoreParams {
         blur_sigmas: blur_grid(args.blur_max, args.blur_step)?,
         weighting: args.weighting,
+        kernel: args.kernel,
         borji_splits: args.borji_splits,
         seed: args.seed,
         ..ScoreParams::default()
@@ -255,7 +261,8 @@ pub fn run(args: ScoreArgs) -> Result<()> {
             seconds.push((method.name().to_string(), out.seconds));
             maps.push((method.name().to_string(), out.values));
         }
-        let score: MeshScore = score_mesh(&mesh, &truth, &maps, &params, &bars);
+        let score: MeshScore = score_mesh(&mesh, &truth, &maps, &params, &bars)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", mesh_path.display()))?;
         let plots = write_plots(&prefix, name, &maps, &score)?;
         for r in &score.rows {
             writeln!(
