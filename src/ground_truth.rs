@@ -3,10 +3,11 @@
 //! `time bin` files of the VR dataset), or a fixation set (CSV with `subject` and `vertex`
 //! columns, one row per fixation, as `meshgaze truth` writes).
 use std::collections::BTreeMap;
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use serde::Serialize;
+
+use crate::file_bytes::{read_maybe_gzipped, ReadError};
 
 #[derive(Debug, thiserror::Error)]
 pub enum TruthError {
@@ -85,22 +86,16 @@ impl GroundTruth {
 }
 
 fn read_text(path: &Path) -> Result<String, TruthError> {
-    let raw = std::fs::read(path).map_err(|source| TruthError::Io {
-        path: path.to_path_buf(),
-        source,
+    let bytes = read_maybe_gzipped(path).map_err(|e| match e {
+        ReadError::Io(source) => TruthError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+        ReadError::CorruptGzip(e) => TruthError::File {
+            path: path.to_path_buf(),
+            message: format!("gzip data is corrupt: {e}"),
+        },
     })?;
-    let bytes = if raw.starts_with(&[0x1f, 0x8b]) {
-        let mut out = Vec::new();
-        flate2::read::MultiGzDecoder::new(&raw[..])
-            .read_to_end(&mut out)
-            .map_err(|e| TruthError::File {
-                path: path.to_path_buf(),
-                message: format!("gzip data is corrupt: {e}"),
-            })?;
-        out
-    } else {
-        raw
-    };
     let text = String::from_utf8(bytes).map_err(|e| TruthError::File {
         path: path.to_path_buf(),
         message: format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to()),

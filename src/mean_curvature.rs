@@ -220,6 +220,32 @@ pub(crate) mod test_meshes {
         mesh
     }
 
+    /// A unit square height field z = height(x, y) of n × n vertices, x and y from `origin` to
+    /// `origin + 1`.
+    pub fn height_field(n: usize, origin: f64, height: impl Fn(f64, f64) -> f64) -> Mesh {
+        let mut positions = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                let x = origin + i as f64 / (n - 1) as f64;
+                let y = origin + j as f64 / (n - 1) as f64;
+                positions.push(DVec3::new(x, y, height(x, y)));
+            }
+        }
+        let mut triangles = Vec::new();
+        for j in 0..n - 1 {
+            for i in 0..n - 1 {
+                let a = (j * n + i) as u32;
+                let (b, c, d) = (a + 1, a + n as u32, a + n as u32 + 1);
+                triangles.push([a, b, d]);
+                triangles.push([a, d, c]);
+            }
+        }
+        Mesh {
+            positions,
+            triangles,
+        }
+    }
+
     /// Open cylinder of radius r around z, `around` × `along` vertices.
     pub fn cylinder(r: f64, height: f64, around: usize, along: usize) -> Mesh {
         let mut positions = Vec::new();

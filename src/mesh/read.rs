@@ -1,7 +1,7 @@
-use std::io::Read;
 use std::path::Path;
 
 use super::{obj, off, ply, LoadReport, Mesh, MeshError};
+use crate::file_bytes::{read_maybe_gzipped, ReadError};
 
 /// The mesh file formats meshgaze reads. Any of them may be gzip-compressed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -58,19 +58,13 @@ impl MeshFormat {
 
 /// Reads an OBJ, PLY or OFF mesh (optionally gzip-compressed, detected by content).
 pub fn load_mesh(path: &Path) -> Result<(Mesh, LoadReport), MeshError> {
-    let raw = std::fs::read(path).map_err(|source| MeshError::Io {
-        path: path.to_path_buf(),
-        source,
+    let bytes = read_maybe_gzipped(path).map_err(|e| match e {
+        ReadError::Io(source) => MeshError::Io {
+            path: path.to_path_buf(),
+            source,
+        },
+        ReadError::CorruptGzip(e) => MeshError::invalid(path, format!("gzip data is corrupt: {e}")),
     })?;
-    let bytes = if raw.starts_with(&[0x1f, 0x8b]) {
-        let mut out = Vec::new();
-        flate2::read::MultiGzDecoder::new(&raw[..])
-            .read_to_end(&mut out)
-            .map_err(|e| MeshError::invalid(path, format!("gzip data is corrupt: {e}")))?;
-        out
-    } else {
-        raw
-    };
     let format = MeshFormat::from_path(path)
         .or_else(|| MeshFormat::sniff(&bytes))
         .ok_or_else(|| {

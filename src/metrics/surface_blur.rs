@@ -190,29 +190,7 @@ mod tests {
     use super::*;
 
     fn plate(n: usize) -> Mesh {
-        let mut positions = Vec::new();
-        for j in 0..n {
-            for i in 0..n {
-                positions.push(DVec3::new(
-                    i as f64 / (n - 1) as f64 - 0.5,
-                    j as f64 / (n - 1) as f64 - 0.5,
-                    0.0,
-                ));
-            }
-        }
-        let mut triangles = Vec::new();
-        for j in 0..n - 1 {
-            for i in 0..n - 1 {
-                let a = (j * n + i) as u32;
-                let (b, c, d) = (a + 1, a + n as u32, a + n as u32 + 1);
-                triangles.push([a, b, d]);
-                triangles.push([a, d, c]);
-            }
-        }
-        Mesh {
-            positions,
-            triangles,
-        }
+        crate::mean_curvature::test_meshes::height_field(n, -0.5, |_, _| 0.0)
     }
 
     #[test]

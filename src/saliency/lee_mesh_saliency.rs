@@ -170,31 +170,10 @@ mod tests {
 
     /// A flat square plate of n × n vertices with a small Gaussian bump.
     fn plate_with_bump(n: usize, bump: (f64, f64), width: f64, height: f64) -> Mesh {
-        let mut positions = Vec::new();
-        for j in 0..n {
-            for i in 0..n {
-                let (x, y) = (i as f64 / (n - 1) as f64, j as f64 / (n - 1) as f64);
-                let r2 = (x - bump.0).powi(2) + (y - bump.1).powi(2);
-                positions.push(DVec3::new(
-                    x,
-                    y,
-                    height * (-r2 / (2.0 * width * width)).exp(),
-                ));
-            }
-        }
-        let mut triangles = Vec::new();
-        for j in 0..n - 1 {
-            for i in 0..n - 1 {
-                let a = (j * n + i) as u32;
-                let (b, c, d) = (a + 1, a + n as u32, a + n as u32 + 1);
-                triangles.push([a, b, d]);
-                triangles.push([a, d, c]);
-            }
-        }
-        Mesh {
-            positions,
-            triangles,
-        }
+        crate::mean_curvature::test_meshes::height_field(n, 0.0, |x, y| {
+            let r2 = (x - bump.0).powi(2) + (y - bump.1).powi(2);
+            height * (-r2 / (2.0 * width * width)).exp()
+        })
     }
 
     #[test]

@@ -181,33 +181,7 @@ fn stage_a(mesh: &Mesh, params: &SmsParams, progress: &dyn Progress) -> Result<S
         return Err("the mesh has zero surface area: nothing to sample".into());
     }
     let centers: Vec<DVec3> = samples.iter().map(|s| s.point).collect();
-    let tick = |k: usize| progress.advance(k as u64);
-    let t_field = Instant::now();
-    let (descriptors, field_s, grid) = match params.field {
-        FieldKind::Grid => {
-            progress.start("distance field", 0);
-            let field = GridField::build(&normalized, params.descriptor.max_radius(), params.grid)?;
-            let field_s = t_field.elapsed().as_secs_f64();
-            progress.finish();
-            progress.start("descriptors", centers.len() as u64);
-            let d = compute_descriptors(&field, &centers, &params.descriptor, &tick);
-            progress.finish();
-            (d, field_s, Some((field.h, field.sigma)))
-        }
-        FieldKind::Exact => {
-            // Same Gaussian width the grid would use at this resolution, for comparability.
-            let (lo, hi) = normalized.referenced_bounds().ok_or("no triangle")?;
-            let (_, h) = grid_geometry(lo, hi, params.descriptor.max_radius(), params.grid)?;
-            let field = ExactField {
-                mesh: &normalized,
-                sigma: params.grid.sigma_voxels * h,
-            };
-            progress.start("descriptors (exact field)", centers.len() as u64);
-            let d = compute_descriptors(&field, &centers, &params.descriptor, &tick);
-            progress.finish();
-            (d, 0.0, Some((h, field.sigma)))
-        }
-    };
+    let (descriptors, (field_s, grid)) = describe(&normalized, &centers, params, progress)?;
     Ok(StageA {
         normalization,
         normalized,
@@ -215,6 +189,45 @@ fn stage_a(mesh: &Mesh, params: &SmsParams, progress: &dyn Progress) -> Result<S
         descriptors,
         field_s,
         grid,
+    })
+}
+
+/// Seconds spent building the field, and its (voxel size, Gaussian width).
+type FieldFacts = (f64, Option<(f64, f64)>);
+
+/// Descriptors at `centers` of the normalized mesh with the field `params` asks for.
+fn describe(
+    normalized: &Mesh,
+    centers: &[DVec3],
+    params: &SmsParams,
+    progress: &dyn Progress,
+) -> Result<(Descriptors, FieldFacts), String> {
+    let tick = |k: usize| progress.advance(k as u64);
+    let t_field = Instant::now();
+    Ok(match params.field {
+        FieldKind::Grid => {
+            progress.start("distance field", 0);
+            let field = GridField::build(normalized, params.descriptor.max_radius(), params.grid)?;
+            let field_s = t_field.elapsed().as_secs_f64();
+            progress.finish();
+            progress.start("descriptors", centers.len() as u64);
+            let d = compute_descriptors(&field, centers, &params.descriptor, &tick);
+            progress.finish();
+            (d, (field_s, Some((field.h, field.sigma))))
+        }
+        FieldKind::Exact => {
+            // Same Gaussian width the grid would use at this resolution, for comparability.
+            let (lo, hi) = normalized.referenced_bounds().ok_or("no triangle")?;
+            let (_, h) = grid_geometry(lo, hi, params.descriptor.max_radius(), params.grid)?;
+            let field = ExactField {
+                mesh: normalized,
+                sigma: params.grid.sigma_voxels * h,
+            };
+            progress.start("descriptors (exact field)", centers.len() as u64);
+            let d = compute_descriptors(&field, centers, &params.descriptor, &tick);
+            progress.finish();
+            (d, (0.0, Some((h, field.sigma))))
+        }
     })
 }
 
@@ -327,20 +340,5 @@ pub fn descriptors_at(
     let normalization = Normalization::of_mesh(mesh, params.bounding_box);
     let normalized = normalization.normalized_mesh(mesh);
     let centers: Vec<DVec3> = points.iter().map(|&p| normalization.apply(p)).collect();
-    let none = |_: usize| {};
-    Ok(match params.field {
-        FieldKind::Grid => {
-            let field = GridField::build(&normalized, params.descriptor.max_radius(), params.grid)?;
-            compute_descriptors(&field, &centers, &params.descriptor, &none)
-        }
-        FieldKind::Exact => {
-            let (lo, hi) = normalized.referenced_bounds().ok_or("no triangle")?;
-            let (_, h) = grid_geometry(lo, hi, params.descriptor.max_radius(), params.grid)?;
-            let field = ExactField {
-                mesh: &normalized,
-                sigma: params.grid.sigma_voxels * h,
-            };
-            compute_descriptors(&field, &centers, &params.descriptor, &none)
-        }
-    })
+    Ok(describe(&normalized, &centers, params, &crate::progress::Silent)?.0)
 }

@@ -16,10 +16,10 @@
 //! end with a Gaussian smoothing whose width the paper does not give; 0.02 is SMS's σ) and
 //! rescaled to [0, 1].
 use faer::Mat;
-use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use serde::Serialize;
 
 use super::gaussian_interpolation::min_max_normalize;
+use crate::corruption::transfer_by_nearest_vertex;
 use crate::geometry::{BoundingBox, Normalization};
 use crate::mesh::Mesh;
 use crate::metrics::surface_blur::{vertex_areas, SurfaceBlur};
@@ -154,20 +154,8 @@ pub fn spectral_irregularity(
         *v = v.abs().max(floor).ln();
     }
     // Back to every input vertex: the value of the nearest simplified vertex.
-    let pts: Vec<[f64; 3]> = small.positions.iter().map(|p| p.to_array()).collect();
-    let tree: ImmutableKdTree<f64, 3> =
-        ImmutableKdTree::new_from_slice(&pts).expect("fewer than 2^32 vertices");
-    let mut values: Vec<f64> = normalized
-        .positions
-        .iter()
-        .map(|p| {
-            let hit = tree
-                .query(&p.to_array())
-                .nearest_one::<SquaredEuclidean<f64>>()
-                .execute();
-            saliency_small[hit.item as usize]
-        })
-        .collect();
+    let mut values =
+        transfer_by_nearest_vertex(&small.positions, &saliency_small, &normalized.positions);
     if params.smoothing_sigma > 0.0 {
         let blur = SurfaceBlur::new(normalized.positions.clone(), vertex_areas(&normalized));
         values = blur.blur(&[&values], params.smoothing_sigma).remove(0);

@@ -1,0 +1,23 @@
+//! Reading input files whole, gzip or not (detected by the magic bytes, not the name).
+use std::io::Read;
+use std::path::Path;
+
+/// Why a file could not be read: the I/O error, or corrupt gzip data.
+#[derive(Debug)]
+pub enum ReadError {
+    Io(std::io::Error),
+    CorruptGzip(std::io::Error),
+}
+
+/// The file's bytes, decompressed when they start with the gzip magic number.
+pub fn read_maybe_gzipped(path: &Path) -> Result<Vec<u8>, ReadError> {
+    let raw = std::fs::read(path).map_err(ReadError::Io)?;
+    if !raw.starts_with(&[0x1f, 0x8b]) {
+        return Ok(raw);
+    }
+    let mut out = Vec::new();
+    flate2::read::MultiGzDecoder::new(&raw[..])
+        .read_to_end(&mut out)
+        .map_err(ReadError::CorruptGzip)?;
+    Ok(out)
+}
