@@ -20,3 +20,4 @@ pub mod saliency;
 pub mod sampling;
 pub mod scoring;
 pub mod simplification;
+pub mod stimulus;

@@ -19,6 +19,7 @@ struct Cli {
 enum Command {
     Saliency(commands::saliency::SaliencyArgs),
     Score(commands::score::ScoreArgs),
+    Stimulus(commands::stimulus::StimulusArgs),
     Demo(commands::demo::DemoArgs),
     Bench(commands::bench::BenchArgs),
 }
@@ -28,6 +29,7 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Saliency(args) => commands::saliency::run(args),
         Command::Score(args) => commands::score::run(args),
+        Command::Stimulus(args) => commands::stimulus::run(args),
         Command::Demo(args) => commands::demo::run(args),
         Command::Bench(args) => commands::bench::run(args),
     };

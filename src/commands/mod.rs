@@ -3,3 +3,4 @@ pub mod demo;
 pub mod progress_bar;
 pub mod saliency;
 pub mod score;
+pub mod stimulus;

@@ -1,0 +1,332 @@
+//! Stimulus rendering: a protocol and a mesh become a turntable video, the camera timeline
+//! of every frame, and a manifest with the hashes that later stages check.
+pub mod camera;
+pub mod overlay;
+pub mod protocol;
+pub mod raster;
+pub mod video;
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use serde::Serialize;
+
+pub use camera::{CameraPlan, CameraState, Phase};
+pub use protocol::Protocol;
+
+use crate::mesh::Mesh;
+use crate::progress::Progress;
+use crate::provenance::{sha256_hex, InputFile, Provenance};
+use raster::Rasterizer;
+
+/// Which frames to also write as PNG.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum FrameImages {
+    None,
+    /// The first frame of every hold.
+    Keyframes,
+    /// Every frame.
+    All,
+}
+
+#[derive(Debug, Clone)]
+pub struct StimulusOptions {
+    pub frames: FrameImages,
+    /// Per-keyframe triangle-id images (no anti-aliasing).
+    pub id_buffer: bool,
+    /// Keep the encoded stream in memory and decode it back to check it.
+    pub verify: bool,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct VideoFacts {
+    pub file: String,
+    pub sha256: String,
+    pub codec: &'static str,
+    pub width: u32,
+    pub height: u32,
+    pub fps: u32,
+    pub frames: usize,
+    pub duration_s: f64,
+    pub bytes: u64,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Timings {
+    pub render_s: f64,
+    pub encode_s: f64,
+    pub total_s: f64,
+    pub frames_rendered: usize,
+    pub frames_reused: usize,
+}
+
+/// What a decoded-back check found.
+#[derive(Debug, Clone, Serialize)]
+pub struct VerifyReport {
+    pub frames_decoded: usize,
+    pub min_psnr_db: f64,
+    /// Channel values off by more than 48 from the rendered frame, over all frames.
+    pub outlier_values: usize,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct Manifest {
+    pub provenance: Provenance,
+    pub protocol: Protocol,
+    /// The protocol file's text, byte for byte.
+    pub protocol_toml: String,
+    pub protocol_sha256: String,
+    pub mesh: MeshFacts,
+    pub video: VideoFacts,
+    pub timeline: TimelineFacts,
+    pub camera: CameraPlan,
+    pub timings: Timings,
+    pub verify: Option<VerifyReport>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct MeshFacts {
+    pub file: String,
+    pub sha256: String,
+    pub vertices: usize,
+    pub triangles: usize,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct TimelineFacts {
+    pub file: String,
+    pub sha256: String,
+    pub rows: usize,
+}
+
+/// The timeline CSV header: one row per frame.
+pub fn timeline_header() -> String {
+    let mut h = vec![
+        "frame",
+        "time_ms",
+        "phase",
+        "viewpoint",
+        "next_viewpoint",
+        "progress",
+        "eye_x",
+        "eye_y",
+        "eye_z",
+    ]
+    .into_iter()
+    .map(String::from)
+    .collect::<Vec<_>>();
+    for m in ["view", "proj"] {
+        for r in 0..4 {
+            for c in 0..4 {
+                h.push(format!("{m}_r{r}c{c}"));
+            }
+        }
+    }
+    h.extend(["viewport_x", "viewport_y", "viewport_w", "viewport_h"].map(String::from));
+    h.join(",")
+}
+
+fn timeline_row(frame: usize, cam: &CameraState) -> String {
+    let mut f = vec![
+        frame.to_string(),
+        format!("{}", cam.time_s * 1000.0),
+        cam.phase.name().to_string(),
+        cam.viewpoint.to_string(),
+        cam.next_viewpoint.to_string(),
+        format!("{}", cam.progress),
+        format!("{}", cam.eye.x),
+        format!("{}", cam.eye.y),
+        format!("{}", cam.eye.z),
+    ];
+    for m in [cam.view, cam.projection] {
+        for r in 0..4 {
+            for c in 0..4 {
+                f.push(format!("{}", m.col(c)[r]));
+            }
+        }
+    }
+    f.extend([
+        "0".into(),
+        "0".into(),
+        cam.width_px.to_string(),
+        cam.height_px.to_string(),
+    ]);
+    f.join(",")
+}
+
+fn save_png(path: &Path, rgb: &[u8], w: u32, h: u32) -> Result<(), String> {
+    image::save_buffer(path, rgb, w, h, image::ExtendedColorType::Rgb8)
+        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Renders the stimulus of `mesh` under `protocol` into `out_dir`: stimulus.mp4, timeline.csv,
+/// manifest.json (and frame / id images when asked).
+#[allow(clippy::too_many_arguments)]
+pub fn render_stimulus(
+    mesh_file: &Path,
+    mesh: &Mesh,
+    protocol: &Protocol,
+    protocol_text: &str,
+    protocol_file: &Path,
+    out_dir: &Path,
+    options: &StimulusOptions,
+    progress: &dyn Progress,
+) -> Result<Manifest, String> {
+    let t0 = Instant::now();
+    std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
+    let plan = CameraPlan::new(mesh, protocol)?;
+    let mut raster = Rasterizer::new(mesh);
+    let (w, h) = (protocol.display.width_px, protocol.display.height_px);
+    let fps = protocol.video.fps;
+    let n_frames = protocol.frame_count();
+    let video_path = out_dir.join("stimulus.mp4");
+    let mut video = video::Mp4Writer::create(
+        &video_path,
+        w as usize,
+        h as usize,
+        fps,
+        protocol.video.bitrate_bps,
+        protocol.video.keyframe_interval_frames,
+    )?;
+    if options.verify {
+        video.check_by_decoding()?;
+    }
+    let timeline_path = out_dir.join("timeline.csv");
+    let mut timeline = std::io::BufWriter::new(
+        std::fs::File::create(&timeline_path)
+            .map_err(|e| format!("{}: {e}", timeline_path.display()))?,
+    );
+    let io = |e: std::io::Error| format!("{}: {e}", timeline_path.display());
+    writeln!(timeline, "{}", timeline_header()).map_err(io)?;
+    let frames_dir = out_dir.join("frames");
+    if options.frames != FrameImages::None || options.id_buffer {
+        std::fs::create_dir_all(&frames_dir)
+            .map_err(|e| format!("{}: {e}", frames_dir.display()))?;
+    }
+    let (mut render_s, mut encode_s) = (0.0, 0.0);
+    let (mut rendered, mut reused) = (0, 0);
+    let mut cached: Option<(usize, Vec<u8>)> = None; // (viewpoint, image) of the current hold
+    let overlays = protocol.sync.photodiode || protocol.sync.frame_counter;
+    progress.start("rendering + encoding", n_frames as u64);
+    for i in 0..n_frames {
+        let cam = plan.at(i as f64 / fps as f64);
+        writeln!(timeline, "{}", timeline_row(i, &cam)).map_err(io)?;
+        let tr = Instant::now();
+        let hold_start =
+            cam.phase == Phase::Hold && cached.as_ref().is_none_or(|c| c.0 != cam.viewpoint);
+        let reuse =
+            cam.phase == Phase::Hold && cached.as_ref().is_some_and(|c| c.0 == cam.viewpoint);
+        if reuse {
+            reused += 1;
+        } else {
+            rendered += 1;
+            let img = raster.render(&cam, &protocol.rendering);
+            cached = Some((
+                if cam.phase == Phase::Hold {
+                    cam.viewpoint
+                } else {
+                    usize::MAX
+                },
+                img,
+            ));
+        }
+        let image = &cached.as_ref().expect("rendered above").1;
+        let with_overlays;
+        let frame: &[u8] = if overlays {
+            let mut f = image.clone();
+            overlay::apply(&mut f, w as usize, h as usize, i, cam.phase, &protocol.sync);
+            with_overlays = f;
+            &with_overlays
+        } else {
+            image
+        };
+        render_s += tr.elapsed().as_secs_f64();
+        if options.frames == FrameImages::All
+            || (options.frames == FrameImages::Keyframes && hold_start)
+        {
+            save_png(&frames_dir.join(format!("frame_{i:05}.png")), frame, w, h)?;
+        }
+        if options.id_buffer && hold_start {
+            let ids = raster.triangle_ids(&cam);
+            // 24-bit id + 1 in RGB (0 = background): exact for up to 16.7 million triangles.
+            let rgb: Vec<u8> = ids
+                .iter()
+                .flat_map(|&t| {
+                    let v = if t == raster::BACKGROUND_ID { 0 } else { t + 1 };
+                    [(v >> 16) as u8, (v >> 8) as u8, v as u8]
+                })
+                .collect();
+            save_png(&frames_dir.join(format!("ids_{i:05}.png")), &rgb, w, h)?;
+        }
+        let te = Instant::now();
+        video.push(frame)?;
+        encode_s += te.elapsed().as_secs_f64();
+        progress.advance(1);
+    }
+    progress.finish();
+    timeline.flush().map_err(io)?;
+    drop(timeline);
+    let (frames, checker) = video.finish()?;
+    let verify = checker.map(|c| VerifyReport {
+        frames_decoded: c.frames_decoded,
+        min_psnr_db: c.min_psnr_db,
+        outlier_values: c.outlier_values,
+    });
+    let video_file =
+        InputFile::hash(&video_path).map_err(|e| format!("{}: {e}", video_path.display()))?;
+    let timeline_file =
+        InputFile::hash(&timeline_path).map_err(|e| format!("{}: {e}", timeline_path.display()))?;
+    let mesh_input =
+        InputFile::hash(mesh_file).map_err(|e| format!("{}: {e}", mesh_file.display()))?;
+    let protocol_input =
+        InputFile::hash(protocol_file).map_err(|e| format!("{}: {e}", protocol_file.display()))?;
+    let manifest = Manifest {
+        provenance: Provenance::new(vec![mesh_input.clone(), protocol_input]),
+        protocol: protocol.clone(),
+        protocol_toml: protocol_text.to_string(),
+        protocol_sha256: sha256_hex(protocol_text.as_bytes()),
+        mesh: MeshFacts {
+            file: mesh_file.display().to_string(),
+            sha256: mesh_input.sha256,
+            vertices: mesh.positions.len(),
+            triangles: mesh.triangles.len(),
+        },
+        video: VideoFacts {
+            file: "stimulus.mp4".into(),
+            sha256: video_file.sha256,
+            codec: "H.264 High@4.0, yuv420p, BT.709, constant frame rate, fast start",
+            width: w,
+            height: h,
+            fps,
+            frames,
+            duration_s: frames as f64 / fps as f64,
+            bytes: video_file.bytes,
+        },
+        timeline: TimelineFacts {
+            file: "timeline.csv".into(),
+            sha256: timeline_file.sha256,
+            rows: n_frames,
+        },
+        camera: plan,
+        timings: Timings {
+            render_s,
+            encode_s,
+            total_s: t0.elapsed().as_secs_f64(),
+            frames_rendered: rendered,
+            frames_reused: reused,
+        },
+        verify,
+    };
+    let manifest_path = out_dir.join("manifest.json");
+    let json = serde_json::to_string_pretty(&manifest).map_err(|e| e.to_string())? + "\n";
+    std::fs::write(&manifest_path, json)
+        .map_err(|e| format!("{}: {e}", manifest_path.display()))?;
+    Ok(manifest)
+}
+
+/// Where a stimulus folder keeps its files.
+pub fn manifest_path(dir: &Path) -> PathBuf {
+    dir.join("manifest.json")
+}

@@ -1,0 +1,324 @@
+//! Experiment protocols as data: everything a stimulus and the later stages fix, read from
+//! TOML (protocols/README.md documents every field).
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+#[derive(Debug, thiserror::Error)]
+pub enum ProtocolError {
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}: {message}")]
+    Parse { path: String, message: String },
+    #[error("{path}: invalid protocol: {message}")]
+    Invalid { path: String, message: String },
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Protocol {
+    /// Schema version of this file format (1).
+    pub version: u32,
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    pub display: Display,
+    pub video: Video,
+    pub viewpoints: Viewpoints,
+    pub timing: Timing,
+    pub rendering: Rendering,
+    #[serde(default)]
+    pub sync: Sync,
+    pub fixations: FixationRules,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Display {
+    pub width_px: u32,
+    pub height_px: u32,
+    pub width_mm: f64,
+    pub height_mm: f64,
+    /// Nearest and farthest eye-to-screen distance of the subjects.
+    pub viewing_distance_mm: [f64; 2],
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Video {
+    pub fps: u32,
+    pub bitrate_bps: u32,
+    /// Frames between IDR frames (seekable points).
+    pub keyframe_interval_frames: u32,
+}
+
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum ViewpointGenerator {
+    /// The 12 vertex directions of a regular icosahedron: the whole surface from evenly
+    /// spread directions.
+    Icosahedron,
+    /// `count` directions evenly spaced in azimuth around the up axis at `elevation_deg`.
+    Turntable,
+    /// The `directions` given.
+    List,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Viewpoints {
+    pub generator: ViewpointGenerator,
+    pub count: usize,
+    /// Turntable only.
+    #[serde(default)]
+    pub elevation_deg: f64,
+    /// List only: directions from the mesh centre to the camera.
+    #[serde(default)]
+    pub directions: Vec<[f64; 3]>,
+    /// The tour starts at the direction closest to this one, then always moves to the nearest
+    /// direction not yet shown.
+    pub first: [f64; 3],
+    /// The mesh's up axis: screen-up at every keyframe (where the view is not along it).
+    pub up: [f64; 3],
+}
+
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum Easing {
+    Linear,
+    /// ½ − ½ cos(π s): zero speed at both ends, peak speed π/2 × the mean.
+    Cosine,
+    /// 3s² − 2s³: zero speed at both ends, peak speed 1.5 × the mean.
+    Smoothstep,
+}
+
+impl Easing {
+    pub fn apply(self, s: f64) -> f64 {
+        let s = s.clamp(0.0, 1.0);
+        match self {
+            Easing::Linear => s,
+            Easing::Cosine => 0.5 - 0.5 * (std::f64::consts::PI * s).cos(),
+            Easing::Smoothstep => s * s * (3.0 - 2.0 * s),
+        }
+    }
+
+    /// Largest d(eased)/ds.
+    pub fn peak_rate(self) -> f64 {
+        match self {
+            Easing::Linear => 1.0,
+            Easing::Cosine => std::f64::consts::FRAC_PI_2,
+            Easing::Smoothstep => 1.5,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Timing {
+    pub hold_s: f64,
+    pub move_s: f64,
+    pub easing: Easing,
+    /// After the last hold, move back to the first viewpoint (this fills the paper's 48th
+    /// second: 12 × (3 + 1) = 48 s). Without it the video ends on the last hold.
+    pub return_to_first: bool,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Rendering {
+    pub background: [u8; 3],
+    pub material: [u8; 3],
+    pub ambient: f64,
+    pub diffuse: f64,
+    /// Light direction in camera coordinates (x right, y up, z towards the viewer): a
+    /// headlight, so every view is lit the same way.
+    pub light_direction: [f64; 3],
+    /// Vertical field of view.
+    pub field_of_view_deg: f64,
+    /// The mesh's bounding sphere spans this fraction of the screen height.
+    pub fill: f64,
+    /// Samples per pixel along each axis for anti-aliasing (1 = none).
+    pub supersampling: u32,
+}
+
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
+#[serde(rename_all = "kebab-case")]
+pub enum Corner {
+    TopLeft,
+    TopRight,
+    BottomLeft,
+    #[default]
+    BottomRight,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
+#[serde(deny_unknown_fields)]
+pub struct Sync {
+    /// A square white during holds and black during moves, for a photodiode on the screen.
+    #[serde(default)]
+    pub photodiode: bool,
+    #[serde(default)]
+    pub photodiode_corner: Corner,
+    #[serde(default = "default_patch")]
+    pub photodiode_size_px: u32,
+    /// The frame index burned into the top-left corner.
+    #[serde(default)]
+    pub frame_counter: bool,
+}
+
+fn default_patch() -> u32 {
+    40
+}
+
+#[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
+#[serde(rename_all = "lowercase")]
+pub enum DuringMove {
+    /// Use the camera at the fixation's mid-time.
+    Mid,
+    /// Use the camera at the fixation's start.
+    Start,
+    /// Reject fixations that overlap a move.
+    Reject,
+}
+
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct FixationRules {
+    pub drop_first: usize,
+    pub drop_last: usize,
+    pub keep_longest: usize,
+    pub calibration_accept_deg: f64,
+    pub tracker_accuracy_deg: f64,
+    pub during_move: DuringMove,
+}
+
+impl Protocol {
+    pub fn from_toml(text: &str, path: &str) -> Result<Protocol, ProtocolError> {
+        let p: Protocol = toml::from_str(text).map_err(|e| ProtocolError::Parse {
+            path: path.to_string(),
+            message: e.to_string().trim_end().to_string(),
+        })?;
+        p.validate().map_err(|message| ProtocolError::Invalid {
+            path: path.to_string(),
+            message,
+        })?;
+        Ok(p)
+    }
+
+    pub fn load(path: &Path) -> Result<(Protocol, String), ProtocolError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ProtocolError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Ok((
+            Protocol::from_toml(&text, &path.display().to_string())?,
+            text,
+        ))
+    }
+
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = |v: f64, what: &str| -> Result<(), String> {
+            if v > 0.0 && v.is_finite() {
+                Ok(())
+            } else {
+                Err(format!("{what} must be positive (got {v})"))
+            }
+        };
+        if self.version != 1 {
+            return Err(format!(
+                "version {} is not supported (this meshgaze reads 1)",
+                self.version
+            ));
+        }
+        if self.display.width_px < 16 || self.display.height_px < 16 {
+            return Err("display.width_px and height_px must be at least 16".into());
+        }
+        if self.display.width_px % 2 == 1 || self.display.height_px % 2 == 1 {
+            return Err("display.width_px and height_px must be even (H.264 4:2:0 video)".into());
+        }
+        positive(self.display.width_mm, "display.width_mm")?;
+        positive(self.display.height_mm, "display.height_mm")?;
+        let [near, far] = self.display.viewing_distance_mm;
+        positive(near, "display.viewing_distance_mm[0]")?;
+        if far < near {
+            return Err("display.viewing_distance_mm must be [nearest, farthest]".into());
+        }
+        if !(1..=240).contains(&self.video.fps) {
+            return Err(format!(
+                "video.fps must be 1 to 240 (got {})",
+                self.video.fps
+            ));
+        }
+        if self.video.keyframe_interval_frames == 0 {
+            return Err("video.keyframe_interval_frames must be at least 1".into());
+        }
+        if self.viewpoints.count == 0 {
+            return Err("viewpoints.count must be at least 1".into());
+        }
+        match self.viewpoints.generator {
+            ViewpointGenerator::Icosahedron if self.viewpoints.count != 12 => {
+                return Err("viewpoints.count must be 12 with the icosahedron generator".into())
+            }
+            ViewpointGenerator::List
+                if self.viewpoints.directions.len() != self.viewpoints.count =>
+            {
+                return Err(format!(
+                    "viewpoints.directions has {} entries but count is {}",
+                    self.viewpoints.directions.len(),
+                    self.viewpoints.count
+                ))
+            }
+            _ => {}
+        }
+        for (name, v) in [
+            ("viewpoints.first", self.viewpoints.first),
+            ("viewpoints.up", self.viewpoints.up),
+        ] {
+            if v.iter().map(|x| x * x).sum::<f64>() == 0.0 {
+                return Err(format!("{name} must not be the zero vector"));
+            }
+        }
+        if !(self.timing.hold_s >= 0.0 && self.timing.move_s >= 0.0) {
+            return Err("timing.hold_s and timing.move_s must be zero or more".into());
+        }
+        positive(self.duration_s(), "the protocol's duration")?;
+        let fov = self.rendering.field_of_view_deg;
+        if !(fov > 1.0 && fov < 170.0) {
+            return Err(format!(
+                "rendering.field_of_view_deg must be in (1, 170) (got {fov})"
+            ));
+        }
+        if !(self.rendering.fill > 0.0 && self.rendering.fill <= 1.0) {
+            return Err("rendering.fill must be in (0, 1]".into());
+        }
+        if !(1..=4).contains(&self.rendering.supersampling) {
+            return Err("rendering.supersampling must be 1 to 4".into());
+        }
+        let f = &self.fixations;
+        positive(f.tracker_accuracy_deg, "fixations.tracker_accuracy_deg")?;
+        positive(f.calibration_accept_deg, "fixations.calibration_accept_deg")?;
+        if f.keep_longest == 0 {
+            return Err("fixations.keep_longest must be at least 1".into());
+        }
+        Ok(())
+    }
+
+    /// Total length: every viewpoint held, a move between consecutive ones, and a move back
+    /// to the first with `return_to_first`.
+    pub fn duration_s(&self) -> f64 {
+        let n = self.viewpoints.count as f64;
+        let moves = if self.timing.return_to_first {
+            n
+        } else {
+            n - 1.0
+        };
+        n * self.timing.hold_s + moves * self.timing.move_s
+    }
+
+    pub fn frame_count(&self) -> usize {
+        (self.duration_s() * self.video.fps as f64).round() as usize
+    }
+}
