@@ -267,31 +267,37 @@ fn rasterize_triangle(
         is_top_left(q[2], q[0]),
         is_top_left(q[0], q[1]),
     ];
+    // Edge k runs between the two corners other than k; its function grows by dx[k] per
+    // sample to the right, so a row costs three additions per sample.
+    let ends = [(q[1], q[2]), (q[2], q[0]), (q[0], q[1])];
+    let dx = ends.map(|(a, b)| -(b.1 - a.1));
+    // Depth and perspective weights of the reordered corners, scaled by 1/area.
+    let zs = order.map(|k| v[k].z / area);
+    let iw = order.map(|k| v[k].inv_w / area);
+    let x_start = xmin as f64 + 0.5;
     for y in ymin..ymax {
-        let py = y as f64 + 0.5;
+        let c = (x_start, y as f64 + 0.5);
+        let mut w = ends.map(|(a, b)| edge(a, b, c));
+        let row = (y - row0) * width;
         for x in xmin..xmax {
-            let c = (x as f64 + 0.5, py);
-            let w = [
-                edge(q[1], q[2], c),
-                edge(q[2], q[0], c),
-                edge(q[0], q[1], c),
-            ];
-            if (0..3).any(|k| w[k] < 0.0 || (w[k] == 0.0 && !tl[k])) {
-                continue;
+            let inside = (0..3).all(|k| w[k] > 0.0 || (w[k] == 0.0 && tl[k]));
+            if inside {
+                let z = w[0] * zs[0] + w[1] * zs[1] + w[2] * zs[2];
+                let i = row + x;
+                if (z as f32) < depth[i] {
+                    depth[i] = z as f32;
+                    tri[i] = t;
+                    // Perspective-correct weights, back in the original corner order.
+                    let mut pc = [0.0; 3];
+                    for k in 0..3 {
+                        pc[order[k]] = w[k] * iw[k];
+                    }
+                    let sum = pc[0] + pc[1] + pc[2];
+                    bary[i] = [(pc[1] / sum) as f32, (pc[2] / sum) as f32];
+                }
             }
-            // Screen-space weights of the original corners.
-            let mut l = [0.0; 3];
             for k in 0..3 {
-                l[order[k]] = w[k] / area;
-            }
-            let z = l[0] * v[0].z + l[1] * v[1].z + l[2] * v[2].z;
-            let i = (y - row0) * width + x;
-            if (z as f32) < depth[i] {
-                depth[i] = z as f32;
-                tri[i] = t;
-                let pc = [l[0] * v[0].inv_w, l[1] * v[1].inv_w, l[2] * v[2].inv_w];
-                let s = pc[0] + pc[1] + pc[2];
-                bary[i] = [(pc[1] / s) as f32, (pc[2] / s) as f32];
+                w[k] += dx[k];
             }
         }
     }
