@@ -8,6 +8,7 @@
 pub mod corruption;
 pub mod descriptors;
 pub mod file_bytes;
+pub mod gaze;
 pub mod geometry;
 pub mod ground_truth;
 pub mod mean_curvature;

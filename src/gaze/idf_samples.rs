@@ -1,0 +1,253 @@
+//! Format A (IDF Converter) and A' (BeGaze) sample text: a `##` header, a TAB column-header
+//! line found by content (`Time` and `Type`), then `SMP` rows (one value per column) and `MSG`
+//! rows (`Time MSG Trial # Message: text`). Columns are picked by name, never by position.
+use super::model::{
+    EyeSample, GazeError, Header, Message, Recording, RowAccount, Sample, SmiFormat,
+};
+use super::text::{integer, lines, number, split, Separator};
+
+/// Reads the `key: value` header lines (with or without their `##`).
+pub(crate) fn parse_header_line(line: &str, header: &mut Header) {
+    let body = line.trim_start_matches('#').trim();
+    if body.is_empty() {
+        return;
+    }
+    if body.starts_with('[') && body.ends_with(']') {
+        if header.banner.is_none() {
+            header.banner = Some(body.to_string());
+        }
+        return;
+    }
+    let Some((key, value)) = body.split_once(':') else {
+        header.entries.push((body.to_string(), String::new()));
+        return;
+    };
+    let key = key.trim().to_string();
+    let parts: Vec<&str> = value
+        .split('\t')
+        .map(str::trim)
+        .filter(|p| !p.is_empty())
+        .collect();
+    let value = parts.join("\t");
+    let nums = |n: usize| -> Option<Vec<f64>> {
+        let v: Vec<f64> = parts.iter().filter_map(|p| p.parse::<f64>().ok()).collect();
+        (v.len() >= n).then_some(v)
+    };
+    let anonymised = matches!(value.as_str(), "" | "NA" | "###");
+    match key.as_str() {
+        "Sample Rate" => header.sample_rate_hz = nums(1).map(|v| v[0]),
+        "Calibration Area" => header.calibration_area_px = nums(2).map(|v| [v[0], v[1]]),
+        "Stimulus Dimension [mm]" => header.stimulus_dimension_mm = nums(2).map(|v| [v[0], v[1]]),
+        "Head Distance [mm]" => header.head_distance_mm = nums(1).map(|v| v[0]),
+        "Subject" if !anonymised => header.subject = Some(value.clone()),
+        "Version" => header.version = Some(value.clone()),
+        "Date" if !anonymised => {
+            header.date = chrono::NaiveDateTime::parse_from_str(&value, "%d.%m.%Y %H:%M:%S").ok()
+        }
+        "Format" => {
+            header.format_items = value
+                .split(',')
+                .map(|s| s.trim().to_string())
+                .filter(|s| !s.is_empty())
+                .collect()
+        }
+        _ => {}
+    }
+    header.entries.push((key, value));
+}
+
+struct EyeColumns {
+    x: usize,
+    y: usize,
+    validity: Option<usize>,
+    pupil: Option<usize>,
+    event: Option<usize>,
+}
+
+fn eye_columns(columns: &[String], e: &str) -> Option<EyeColumns> {
+    let find = |name: &str| columns.iter().position(|c| c == name);
+    Some(EyeColumns {
+        x: find(&format!("{e} POR X [px]"))?,
+        y: find(&format!("{e} POR Y [px]"))?,
+        validity: find(&format!("{e} Validity")),
+        pupil: find(&format!("{e} Mapped Diameter [mm]"))
+            .or_else(|| find(&format!("{e} Pupil Diameter [mm]")))
+            .or_else(|| find(&format!("{e} Dia X [px]"))),
+        event: find(&format!("{e} Event Info")),
+    })
+}
+
+pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
+    let all = lines(bytes);
+    let sep = Separator::Tab;
+    let header_at = all
+        .iter()
+        .position(|(_, l)| {
+            let f: Vec<&str> = l.split('\t').map(str::trim).collect();
+            f.contains(&"Time") && f.contains(&"Type")
+        })
+        .ok_or_else(|| GazeError::File {
+            path: path.to_string(),
+            message: "no column header line (a TAB-separated line with `Time` and `Type`) was found: not an SMI sample export".into(),
+        })?;
+    let mut header = Header::default();
+    let mut rows = RowAccount {
+        lines: all.len(),
+        ..Default::default()
+    };
+    for (_, l) in &all[..header_at] {
+        parse_header_line(l, &mut header);
+        rows.header_lines += 1;
+    }
+    rows.header_lines += 1; // the column line
+    let columns: Vec<String> = all[header_at]
+        .1
+        .split('\t')
+        .map(|c| c.trim().to_string())
+        .collect();
+    let col = |name: &str| columns.iter().position(|c| c == name);
+    let (time_c, type_c) = (col("Time").expect("found"), col("Type").expect("found"));
+    let trial_c = col("Trial");
+    let left = eye_columns(&columns, "L");
+    let right = eye_columns(&columns, "R");
+    let stimulus_c = col("Stimulus");
+    let format = if header.banner.as_deref() == Some("[BeGaze]")
+        || left.as_ref().is_some_and(|e| e.event.is_some())
+        || right.as_ref().is_some_and(|e| e.event.is_some())
+    {
+        SmiFormat::BeGazeSamples
+    } else {
+        SmiFormat::IdfSamples
+    };
+    let mut notes = Vec::new();
+    if left.is_none() && right.is_none() {
+        notes.push("no `L/R POR X [px]` columns: samples carry no gaze position".to_string());
+    }
+    let mut samples = Vec::new();
+    let mut messages = Vec::new();
+    'rows: for (no, line) in &all[header_at + 1..] {
+        let no = *no;
+        if line.trim().is_empty() {
+            rows.blank_lines += 1;
+            continue;
+        }
+        let f = split(line, sep);
+        let Some(&(tc, kind)) = f.get(type_c) else {
+            rows.reject("row too short to have a `Type`", no, line.len() + 1, line);
+            continue;
+        };
+        let time = f.get(time_c).map(|(_, t)| integer(t));
+        let time = match time {
+            Some(Ok(Some(t))) => t,
+            _ => {
+                rows.reject(
+                    "`Time` is not an integer (µs)",
+                    no,
+                    f.get(time_c).map_or(1, |x| x.0),
+                    line,
+                );
+                continue;
+            }
+        };
+        let trial = match trial_c.and_then(|c| f.get(c)).map(|(_, t)| integer(t)) {
+            None => 1,
+            Some(Ok(Some(t))) if (0..=u32::MAX as i64).contains(&t) => t as u32,
+            _ => {
+                let c = trial_c.and_then(|c| f.get(c)).map_or(1, |x| x.0);
+                rows.reject("`Trial` is not an integer", no, c, line);
+                continue;
+            }
+        };
+        match kind.trim() {
+            "MSG" => {
+                let text = f[(type_c + 2).min(f.len())..]
+                    .iter()
+                    .map(|(_, t)| *t)
+                    .collect::<Vec<_>>()
+                    .join("\t");
+                messages.push(Message {
+                    time_us: time,
+                    trial,
+                    text: super::text::message_text(&text),
+                });
+                rows.messages += 1;
+            }
+            "SMP" => {
+                if f.len() != columns.len() {
+                    rows.reject(
+                        &format!(
+                            "SMP row with a field count other than the header's {}",
+                            columns.len()
+                        ),
+                        no,
+                        1,
+                        line,
+                    );
+                    continue;
+                }
+                let mut eyes = [None, None];
+                let mut events = [None, None];
+                for (k, cols) in [&left, &right].into_iter().enumerate() {
+                    let Some(c) = cols else { continue };
+                    let mut get = |i: usize, name: &str| -> Result<Option<f64>, ()> {
+                        number(f[i].1, sep).map_err(|_| {
+                            rows.reject(&format!("`{name}` is not a number"), no, f[i].0, line);
+                        })
+                    };
+                    let Ok(x) = get(c.x, &columns[c.x]) else {
+                        continue 'rows;
+                    };
+                    let Ok(y) = get(c.y, &columns[c.y]) else {
+                        continue 'rows;
+                    };
+                    let pupil = match c.pupil.map(|i| get(i, &columns[i])) {
+                        Some(Err(())) => continue 'rows,
+                        Some(Ok(p)) => p,
+                        None => None,
+                    };
+                    let validity = match c.validity.map(|i| get(i, &columns[i])) {
+                        Some(Err(())) => continue 'rows,
+                        Some(Ok(v)) => v,
+                        None => None,
+                    };
+                    let (x, y) = (x.unwrap_or(0.0), y.unwrap_or(0.0));
+                    let valid = validity != Some(0.0) && !(x == 0.0 && y == 0.0);
+                    eyes[k] = Some(EyeSample { x, y, pupil, valid });
+                    events[k] = c.event.map(|i| f[i].1.trim().to_string());
+                }
+                let [left_eye, right_eye] = eyes;
+                let [left_event, right_event] = events;
+                samples.push(Sample {
+                    time_us: time,
+                    trial,
+                    left: left_eye,
+                    right: right_eye,
+                    left_event,
+                    right_event,
+                    stimulus: stimulus_c.map(|i| f[i].1.trim().to_string()),
+                });
+                rows.samples += 1;
+            }
+            other => rows.reject(
+                &format!("unknown row type `{other}` (expected SMP or MSG)"),
+                no,
+                tc,
+                line,
+            ),
+        }
+    }
+    if samples.len() > 1 && samples.windows(2).any(|w| w[1].time_us < w[0].time_us) {
+        notes.push("sample times go backwards somewhere: kept in file order".into());
+    }
+    Ok(Recording {
+        file: path.to_string(),
+        format,
+        header,
+        columns,
+        samples,
+        messages,
+        events: Vec::new(),
+        rows,
+        notes,
+    })
+}

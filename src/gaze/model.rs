@@ -1,0 +1,195 @@
+//! What an SMI export holds, in one normalized form whatever the format: samples (both eyes),
+//! messages, events, the header, and an account of every row.
+use std::collections::BTreeMap;
+
+use serde::Serialize;
+
+/// The export formats (names as in shared/docs/smi-formats.md).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+pub enum SmiFormat {
+    /// IDF Converter sample text: `## [iView]` header, TSV, `Time` in µs, `MSG` rows.
+    #[value(name = "a")]
+    #[serde(rename = "A")]
+    IdfSamples,
+    /// BeGaze sample export: `## [BeGaze]` (or a blanked `##` header), per-eye `Event Info`.
+    #[value(name = "a-begaze")]
+    #[serde(rename = "A'")]
+    BeGazeSamples,
+    /// IDF Event Detector / BeGaze event text: `Table Header for …` sections.
+    #[value(name = "c1")]
+    #[serde(rename = "C1")]
+    EventTables,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+pub enum Eye {
+    Left,
+    Right,
+}
+
+/// One eye in one sample. Kept even when invalid, so nothing is lost; `valid` says whether
+/// it can be used.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct EyeSample {
+    /// Point of regard in calibration-area pixels (origin top-left).
+    pub x: f64,
+    pub y: f64,
+    /// Pupil: mapped diameter in mm when exported, else the camera diameter in px.
+    pub pupil: Option<f64>,
+    /// False when the validity flag is 0 or the point of regard is exactly (0, 0), SMI's
+    /// tracking-loss value.
+    pub valid: bool,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Sample {
+    /// Tracker clock in microseconds (an arbitrary epoch; not uniform, pauses jump).
+    pub time_us: i64,
+    pub trial: u32,
+    pub left: Option<EyeSample>,
+    pub right: Option<EyeSample>,
+    /// BeGaze's per-eye event labels (`Fixation`, `Saccade`, `Blink`, `-`), when exported.
+    pub left_event: Option<String>,
+    pub right_event: Option<String>,
+    /// BeGaze's `Stimulus` column, when exported.
+    pub stimulus: Option<String>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Message {
+    pub time_us: i64,
+    pub trial: u32,
+    /// The text after `# Message: ` (or the whole description when that prefix is absent).
+    pub text: String,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub enum EventKind {
+    Fixation,
+    Saccade,
+    Blink,
+}
+
+/// A fixation, saccade or blink as an event export records it, one per eye.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Event {
+    pub kind: EventKind,
+    pub eye: Eye,
+    pub trial: u32,
+    pub number: u64,
+    pub start_us: i64,
+    pub end_us: i64,
+    pub duration_us: i64,
+    /// Fixation location, or saccade start location (px).
+    pub x: Option<f64>,
+    pub y: Option<f64>,
+    /// Saccade end location (px).
+    pub end_x: Option<f64>,
+    pub end_y: Option<f64>,
+    pub dispersion_x: Option<f64>,
+    pub dispersion_y: Option<f64>,
+    /// Average pupil size X, Y (camera px) of a fixation.
+    pub pupil_x: Option<f64>,
+    pub pupil_y: Option<f64>,
+}
+
+/// Header facts meshgaze uses; every raw `key: value` line is kept too.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Header {
+    pub banner: Option<String>,
+    pub entries: Vec<(String, String)>,
+    pub sample_rate_hz: Option<f64>,
+    pub calibration_area_px: Option<[f64; 2]>,
+    pub stimulus_dimension_mm: Option<[f64; 2]>,
+    pub head_distance_mm: Option<f64>,
+    pub subject: Option<String>,
+    /// `dd.mm.yyyy HH:MM:SS` as written (the tracker PC's local time).
+    pub date: Option<chrono::NaiveDateTime>,
+    pub version: Option<String>,
+    /// `## Format:` items (LEFT, RIGHT, POR, …).
+    pub format_items: Vec<String>,
+}
+
+/// Where the first row with a problem was, so a user can look at it.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FirstSeen {
+    pub count: usize,
+    pub line: usize,
+    pub column: usize,
+    pub example: String,
+}
+
+/// Every line of the file, accounted for.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct RowAccount {
+    pub lines: usize,
+    pub header_lines: usize,
+    pub blank_lines: usize,
+    pub samples: usize,
+    pub messages: usize,
+    pub events: usize,
+    /// Lines that could not be used, by reason (with the first one's position).
+    pub unusable: BTreeMap<String, FirstSeen>,
+}
+
+impl RowAccount {
+    pub fn reject(&mut self, reason: &str, line: usize, column: usize, example: &str) {
+        let e = self
+            .unusable
+            .entry(reason.to_string())
+            .or_insert(FirstSeen {
+                count: 0,
+                line,
+                column,
+                example: example.chars().take(120).collect(),
+            });
+        e.count += 1;
+    }
+
+    pub fn unusable_total(&self) -> usize {
+        self.unusable.values().map(|f| f.count).sum()
+    }
+
+    /// Lines accounted for: must equal `lines`.
+    pub fn accounted(&self) -> usize {
+        self.header_lines
+            + self.blank_lines
+            + self.samples
+            + self.messages
+            + self.events
+            + self.unusable_total()
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Recording {
+    pub file: String,
+    pub format: SmiFormat,
+    pub header: Header,
+    /// Column names of the sample table, or of each event table.
+    pub columns: Vec<String>,
+    pub samples: Vec<Sample>,
+    pub messages: Vec<Message>,
+    pub events: Vec<Event>,
+    pub rows: RowAccount,
+    /// Format quirks met (e.g. "fields separated by runs of spaces").
+    pub notes: Vec<String>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum GazeError {
+    #[error("{path}: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}:{line}:{column}: {message}")]
+    At {
+        path: String,
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    #[error("{path}: {message}")]
+    File { path: String, message: String },
+}

@@ -1,0 +1,151 @@
+//! Text-level helpers shared by the SMI readers: lines with numbers, fields with columns,
+//! missing-value markers, lenient numbers.
+
+/// Lines of the file (BOM stripped, CRLF / LF / mixed), with 1-based numbers and the
+/// trailing `\r` removed.
+pub fn lines(bytes: &[u8]) -> Vec<(usize, String)> {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    // Header text comes from Windows: decode leniently (cp1252 bytes become U+FFFD).
+    let text = String::from_utf8_lossy(bytes);
+    let mut out: Vec<(usize, String)> = text
+        .split('\n')
+        .enumerate()
+        .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l).to_string()))
+        .collect();
+    if out.last().is_some_and(|(_, l)| l.is_empty()) {
+        out.pop(); // the newline that ends the last line
+    }
+    out
+}
+
+/// How a table's fields are separated.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Separator {
+    Tab,
+    Comma,
+    Semicolon,
+    /// Runs of two or more spaces (files whose TABs were replaced by spaces).
+    Spaces,
+}
+
+impl Separator {
+    /// From a header line holding several column names.
+    pub fn sniff(line: &str) -> Separator {
+        if line.contains('\t') {
+            Separator::Tab
+        } else if line.contains(';') {
+            Separator::Semicolon
+        } else if line.contains(',') {
+            Separator::Comma
+        } else {
+            Separator::Spaces
+        }
+    }
+}
+
+/// Fields of a line with their 1-based starting columns; not trimmed (empty fields kept).
+pub fn split(line: &str, sep: Separator) -> Vec<(usize, &str)> {
+    let mut out = Vec::new();
+    match sep {
+        Separator::Spaces => {
+            let bytes = line.as_bytes();
+            let mut start = 0;
+            let mut i = 0;
+            while i < bytes.len() {
+                if bytes[i] == b' ' && i + 1 < bytes.len() && bytes[i + 1] == b' ' {
+                    let end = i;
+                    while i < bytes.len() && bytes[i] == b' ' {
+                        i += 1;
+                    }
+                    out.push((start + 1, &line[start..end]));
+                    start = i;
+                } else {
+                    i += 1;
+                }
+            }
+            out.push((start + 1, &line[start..]));
+        }
+        _ => {
+            let c = match sep {
+                Separator::Tab => '\t',
+                Separator::Comma => ',',
+                _ => ';',
+            };
+            let mut start = 0;
+            for (i, ch) in line.char_indices() {
+                if ch == c {
+                    out.push((start + 1, &line[start..i]));
+                    start = i + ch.len_utf8();
+                }
+            }
+            out.push((start + 1, &line[start..]));
+        }
+    }
+    out
+}
+
+/// SMI's missing-value markers: empty, `-`, `NA`, `###`.
+pub fn is_missing(field: &str) -> bool {
+    matches!(field.trim(), "" | "-" | "NA" | "###")
+}
+
+/// A number, accepting a decimal comma when the separator is not a comma; None if missing.
+pub(crate) fn number(field: &str, sep: Separator) -> Result<Option<f64>, ()> {
+    let f = field.trim();
+    if is_missing(f) {
+        return Ok(None);
+    }
+    let parsed = f.parse::<f64>().or_else(|_| {
+        if sep != Separator::Comma && f.contains(',') && !f.contains('.') {
+            f.replace(',', ".").parse::<f64>()
+        } else {
+            f.parse::<f64>()
+        }
+    });
+    match parsed {
+        Ok(v) if v.is_finite() => Ok(Some(v)),
+        _ => Err(()),
+    }
+}
+
+/// An integer (timestamps in µs, trial and event numbers).
+pub(crate) fn integer(field: &str) -> Result<Option<i64>, ()> {
+    let f = field.trim();
+    if is_missing(f) {
+        return Ok(None);
+    }
+    f.parse::<i64>().map(Some).map_err(|_| ())
+}
+
+/// The text of a `# Message: …` description.
+pub fn message_text(field: &str) -> String {
+    let t = field.trim();
+    t.strip_prefix("# Message:")
+        .map(|m| m.trim_start().to_string())
+        .unwrap_or_else(|| t.to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn splitting_keeps_empty_fields_and_columns() {
+        assert_eq!(
+            split("a\t\tb\t", Separator::Tab),
+            vec![(1, "a"), (3, ""), (4, "b"), (6, "")]
+        );
+        assert_eq!(
+            split("Fixation L        1        12.5", Separator::Spaces),
+            vec![(1, "Fixation L"), (19, "1"), (28, "12.5")]
+        );
+        assert_eq!(number(" 12,5 ", Separator::Tab), Ok(Some(12.5)));
+        assert_eq!(number("-", Separator::Tab), Ok(None));
+        assert_eq!(number("x", Separator::Tab), Err(()));
+        assert_eq!(number("nan", Separator::Tab), Err(()));
+        assert_eq!(
+            message_text("# Message: UE-mouseclick left x=407 y=378"),
+            "UE-mouseclick left x=407 y=378"
+        );
+    }
+}
