@@ -20,6 +20,7 @@ enum Command {
     Saliency(commands::saliency::SaliencyArgs),
     Score(commands::score::ScoreArgs),
     Stimulus(commands::stimulus::StimulusArgs),
+    Ingest(commands::ingest::IngestArgs),
     Demo(commands::demo::DemoArgs),
     Bench(commands::bench::BenchArgs),
 }
@@ -30,6 +31,7 @@ fn main() -> std::process::ExitCode {
         Command::Saliency(args) => commands::saliency::run(args),
         Command::Score(args) => commands::score::run(args),
         Command::Stimulus(args) => commands::stimulus::run(args),
+        Command::Ingest(args) => commands::ingest::run(args),
         Command::Demo(args) => commands::demo::run(args),
         Command::Bench(args) => commands::bench::run(args),
     };

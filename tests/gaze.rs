@@ -228,3 +228,205 @@ proptest! {
         }
     }
 }
+
+mod fixation_tests {
+    use super::*;
+    use meshgaze::gaze::fixations::{
+        apply_protocol_filter, fixations, Detector, DetectorParams, EyePolicy, Fate,
+    };
+    use meshgaze::gaze::model::{EyeSample, Header, RowAccount, Sample};
+
+    /// 250 Hz samples: 300 ms at (100,100), a jump, 500 ms at (400,300), a jump, 200 ms at (700,500).
+    fn synthetic() -> Recording {
+        let mut samples = Vec::new();
+        let mut t = 0i64;
+        for &(x, y, ms) in &[
+            (100.0, 100.0, 300),
+            (400.0, 300.0, 500),
+            (700.0, 500.0, 200),
+        ] {
+            for k in 0..(ms / 4) {
+                let jitter = if k % 2 == 0 { 1.0 } else { -1.0 };
+                let e = EyeSample {
+                    x: x + jitter,
+                    y,
+                    pupil: Some(4.0),
+                    valid: true,
+                };
+                samples.push(Sample {
+                    time_us: t,
+                    trial: 1,
+                    left: Some(e),
+                    right: Some(e),
+                    left_event: None,
+                    right_event: None,
+                    stimulus: None,
+                });
+                t += 4000;
+            }
+            t += 40_000; // a 40 ms saccade without samples
+        }
+        Recording {
+            file: "synthetic".into(),
+            format: SmiFormat::IdfSamples,
+            header: Header {
+                sample_rate_hz: Some(250.0),
+                calibration_area_px: Some([1680.0, 1050.0]),
+                ..Default::default()
+            },
+            columns: Vec::new(),
+            samples,
+            messages: Vec::new(),
+            events: Vec::new(),
+            rows: RowAccount::default(),
+            notes: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn dispersion_and_velocity_detectors_find_the_three_fixations() {
+        let rec = synthetic();
+        for detector in [Detector::IDt, Detector::IVt] {
+            let f = fixations(
+                &rec,
+                "s1",
+                detector,
+                EyePolicy::Average,
+                &DetectorParams::default(),
+            )
+            .unwrap();
+            assert_eq!(f.len(), 3, "{detector:?}: {f:?}");
+            let durations: Vec<f64> = f.iter().map(|x| x.duration_ms).collect();
+            assert_eq!(durations, vec![300.0, 500.0, 200.0], "{detector:?}");
+            // 125 samples jittered +1/-1 alternately: mean x = 400 + 1/125.
+            assert!((f[1].x_px - (400.0 + 1.0 / 125.0)).abs() < 1e-9 && f[1].y_px == 300.0);
+            assert_eq!(f[1].dispersion_px, Some(2.0));
+        }
+    }
+
+    #[test]
+    fn the_protocol_filter_gives_every_fixation_a_fate() {
+        let rec = synthetic();
+        let mut f = fixations(
+            &rec,
+            "s1",
+            Detector::IDt,
+            EyePolicy::Left,
+            &DetectorParams::default(),
+        )
+        .unwrap();
+        // Drop the first one and the last one, keep the single longest of what is left.
+        apply_protocol_filter(&mut f, 1, 1, 1);
+        let fates: Vec<Fate> = f.iter().map(|x| x.fate).collect();
+        assert_eq!(
+            fates,
+            vec![Fate::DroppedFirst, Fate::Kept, Fate::DroppedLast]
+        );
+        // 20 fixations of equal length: ties go to the earlier ones.
+        let mut many: Vec<_> = (0..20)
+            .map(|k| {
+                let mut x = f[1].clone();
+                x.start_us = k * 1_000_000;
+                x.fate = Fate::Kept;
+                x
+            })
+            .collect();
+        apply_protocol_filter(&mut many, 2, 2, 15);
+        let kept: Vec<i64> = many
+            .iter()
+            .filter(|x| x.fate == Fate::Kept)
+            .map(|x| x.start_us / 1_000_000)
+            .collect();
+        assert_eq!(kept, (2..17).collect::<Vec<_>>());
+        assert_eq!(
+            many.iter().filter(|x| x.fate == Fate::NotLongest).count(),
+            1
+        );
+    }
+
+    #[test]
+    fn fixations_from_real_event_and_sample_files_agree_in_scale() {
+        let (Some(s), Some(e)) = (
+            read("hbn-sccn__NDARAA075AMK_Video1_Samples.txt"),
+            read("hbn-sccn__NDARAA075AMK_Video1_Events.txt"),
+        ) else {
+            return;
+        };
+        let from_events = fixations(
+            &e,
+            "hbn",
+            Detector::Events,
+            EyePolicy::Left,
+            &DetectorParams::default(),
+        )
+        .unwrap();
+        let detected = fixations(
+            &s,
+            "hbn",
+            Detector::IDt,
+            EyePolicy::Left,
+            &DetectorParams::default(),
+        )
+        .unwrap();
+        let mean = |f: &[meshgaze::gaze::fixations::Fixation]| {
+            f.iter().map(|x| x.duration_ms).sum::<f64>() / f.len() as f64
+        };
+        eprintln!(
+            "HBN: {} fixations from IDF Event Detector (mean {:.0} ms), {} by meshgaze's I-DT (mean {:.0} ms)",
+            from_events.len(), mean(&from_events), detected.len(), mean(&detected)
+        );
+        assert!(from_events.len() > 400 && detected.len() > 200);
+        // Both split the recording by the same stimulus messages.
+        assert!(
+            from_events.iter().any(|f| f.stimulus == "81")
+                && detected.iter().any(|f| f.stimulus == "81")
+        );
+    }
+}
+
+#[test]
+fn ingest_command_writes_fixations_with_fates_quality_and_provenance() {
+    let (Some(s), Some(e)) = (
+        smi("hbn-sccn__NDARAA075AMK_Video1_Samples.txt"),
+        smi("hbn-sccn__NDARAA075AMK_Video1_Events.txt"),
+    ) else {
+        return;
+    };
+    let out = std::env::temp_dir().join(format!("meshgaze-ingest-{}", std::process::id()));
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+        .args(["ingest", "--quiet", "--protocol"])
+        .arg(common::repo_root().join("protocols/hu2020.toml"))
+        .arg("-o")
+        .arg(&out)
+        .arg(&s)
+        .arg(&e)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let fix = std::fs::read_to_string(out.join("fixations.csv")).unwrap();
+    let mut lines = fix.lines();
+    assert_eq!(lines.next().unwrap(), "subject,stimulus,eye,trial,start_us,end_us,duration_ms,x_px,y_px,dispersion_px,pupil,onset_offset_us,fate");
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert!(rows.iter().all(|r| r.len() == 13));
+    // Per subject and stimulus: at most 15 kept, and exactly 2 dropped first when there were enough.
+    let kept_81 = rows
+        .iter()
+        .filter(|r| r[1] == "81" && r[12] == "kept")
+        .count();
+    assert_eq!(
+        kept_81, 30,
+        "15 kept from the samples' detection + 15 from the events"
+    );
+    let quality = std::fs::read_to_string(out.join("quality.csv")).unwrap();
+    assert!(quality.lines().count() >= 3);
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("ingest.json")).unwrap()).unwrap();
+    assert_eq!(json["files"].as_array().unwrap().len(), 2);
+    assert_eq!(
+        json["provenance"]["inputs"][0]["sha256"]
+            .as_str()
+            .unwrap()
+            .len(),
+        64
+    );
+}

@@ -2,8 +2,10 @@
 //! silently: every line of a file is a header line, a blank line, a sample, a message, an
 //! event, or counted as unusable with its reason and the position of the first such line.
 pub mod event_tables;
+pub mod fixations;
 pub mod idf_samples;
 pub mod model;
+pub mod quality;
 pub mod text;
 
 use std::path::Path;
