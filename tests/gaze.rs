@@ -430,3 +430,88 @@ fn ingest_command_writes_fixations_with_fates_quality_and_provenance() {
         64
     );
 }
+
+mod writer_round_trip {
+    use super::*;
+    use meshgaze::gaze::model::{Event, EventKind, Eye, EyeSample, Header, Message, Sample};
+    use meshgaze::gaze::writers::{write_events_c1, write_samples_a};
+
+    fn header() -> Header {
+        Header {
+            sample_rate_hz: Some(250.0),
+            calibration_area_px: Some([1680.0, 1050.0]),
+            stimulus_dimension_mm: Some([473.8, 296.1]),
+            head_distance_mm: Some(1020.0),
+            subject: Some("virtual-03".into()),
+            date: chrono::NaiveDateTime::parse_from_str("23.11.2026 10:41:00", "%d.%m.%Y %H:%M:%S")
+                .ok(),
+            ..Default::default()
+        }
+    }
+
+    fn eye() -> impl Strategy<Value = Option<EyeSample>> {
+        proptest::option::of(
+            (
+                1.0f64..1679.0,
+                1.0f64..1049.0,
+                proptest::option::of(2.0f64..8.0),
+                any::<bool>(),
+            )
+                .prop_map(|(x, y, pupil, valid)| EyeSample { x, y, pupil, valid }),
+        )
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(60))]
+
+        #[test]
+        fn format_a_round_trips_exactly(
+            eyes in proptest::collection::vec((eye(), eye(), 1u32..4), 1..60),
+            texts in proptest::collection::vec("[a-z0-9_.=]{1,12}( [a-z]{1,5})?", 0..4),
+        ) {
+            let mut t = 1_000_000i64;
+            let samples: Vec<Sample> = eyes.iter().map(|(l, r, trial)| {
+                t += 4000;
+                // A missing eye reads back as an invalid (0, 0) eye: write what a tracker writes.
+                let fill = |e: &Option<EyeSample>| Some(e.unwrap_or(EyeSample { x: 0.0, y: 0.0, pupil: None, valid: false }));
+                Sample { time_us: t, trial: *trial, left: fill(l), right: fill(r), left_event: None, right_event: None, stimulus: None }
+            }).collect();
+            let messages: Vec<Message> = texts.iter().enumerate().map(|(k, text)| Message { time_us: 1_000_000 + 10_000 * k as i64 + 1, trial: 1, text: text.clone() }).collect();
+            let text = write_samples_a(&header(), &samples, &messages);
+            let back = parse_smi(text.as_bytes(), "written.txt", None).unwrap();
+            prop_assert_eq!(back.format, SmiFormat::IdfSamples);
+            prop_assert_eq!(back.rows.unusable_total(), 0);
+            prop_assert_eq!(&back.samples, &samples);
+            prop_assert_eq!(&back.messages, &messages);
+            let h = header();
+            prop_assert_eq!((back.header.sample_rate_hz, back.header.calibration_area_px, back.header.stimulus_dimension_mm), (h.sample_rate_hz, h.calibration_area_px, h.stimulus_dimension_mm));
+            prop_assert_eq!((back.header.head_distance_mm, back.header.subject, back.header.date), (h.head_distance_mm, h.subject, h.date));
+        }
+
+        #[test]
+        fn format_c1_round_trips_exactly(
+            raw in proptest::collection::vec((0u8..3, any::<bool>(), 1u32..3, 0i64..10_000_000, 1i64..2_000_000, 0.0f64..1680.0, 0.0f64..1050.0), 1..40),
+        ) {
+            let mut events: Vec<Event> = raw.iter().enumerate().map(|(k, &(kind, left, trial, start, dur, x, y))| {
+                let kind = [EventKind::Fixation, EventKind::Saccade, EventKind::Blink][kind as usize];
+                let located = kind != EventKind::Blink;
+                Event {
+                    kind, eye: if left { Eye::Left } else { Eye::Right }, trial, number: k as u64 + 1,
+                    start_us: start, end_us: start + dur, duration_us: dur,
+                    x: located.then_some(x), y: located.then_some(y),
+                    end_x: (kind == EventKind::Saccade).then_some(y), end_y: (kind == EventKind::Saccade).then_some(x),
+                    dispersion_x: (kind == EventKind::Fixation).then_some(12.0), dispersion_y: (kind == EventKind::Fixation).then_some(7.0),
+                    pupil_x: (kind == EventKind::Fixation).then_some(16.5), pupil_y: (kind == EventKind::Fixation).then_some(16.25),
+                }
+            }).collect();
+            let messages = vec![Message { time_us: 5, trial: 1, text: "bunny.mp4".into() }];
+            let text = write_events_c1(&header(), &events, &messages);
+            let back = parse_smi(text.as_bytes(), "written_events.txt", None).unwrap();
+            prop_assert_eq!(back.format, SmiFormat::EventTables);
+            prop_assert_eq!(back.rows.unusable_total(), 0);
+            events.sort_by_key(|e| (e.trial, e.start_us, e.eye, e.number));
+            prop_assert_eq!(&back.events, &events);
+            prop_assert_eq!(&back.messages, &messages);
+        }
+    }
+}

@@ -7,6 +7,7 @@ pub mod idf_samples;
 pub mod model;
 pub mod quality;
 pub mod text;
+pub mod writers;
 
 use std::path::Path;
 
