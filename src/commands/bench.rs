@@ -190,6 +190,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             }
         }
     }
+    bench_smi_parse(&args.data)?;
     if !args.skip_stimulus {
         bench_stimulus(&args.data)?;
     }
@@ -258,6 +259,46 @@ fn bench_stimulus(data: &Path) -> Result<()> {
         m.timings.render_s,
         m.timings.encode_s,
         m.timings.total_s
+    );
+    Ok(())
+}
+
+/// Parse speed of SMI format A: HBN's 7,343-sample export repeated to about 1.1 million
+/// samples (times shifted so they keep increasing), read from memory.
+fn bench_smi_parse(data: &Path) -> Result<()> {
+    let path = data.join("smi/hbn-sccn__NDARAA075AMK_Video1_Samples.txt");
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    let split_at = text
+        .find("\nTime\t")
+        .map(|i| i + 1)
+        .context("no column header")?;
+    let body_start = split_at + text[split_at..].find('\n').context("no data")? + 1;
+    let (head, body) = text.split_at(body_start);
+    let rows: Vec<&str> = body.lines().filter(|l| l.contains("\tSMP\t")).collect();
+    let mut big = String::with_capacity(text.len() * 160);
+    big.push_str(head);
+    let mut t: i64 = 1_000_000;
+    for _ in 0..150 {
+        for r in &rows {
+            let (_, rest) = r.split_once('\t').context("row")?;
+            t += 16_667;
+            big.push_str(&t.to_string());
+            big.push('\t');
+            big.push_str(rest);
+            big.push('\n');
+        }
+    }
+    let start = std::time::Instant::now();
+    let rec =
+        meshgaze::gaze::parse_smi(big.as_bytes(), "bench", None).map_err(anyhow::Error::msg)?;
+    let secs = start.elapsed().as_secs_f64();
+    println!(
+        "\nSMI format A parse (HBN samples repeated, {:.0} MB in memory): {} samples in {:.2} s = {:.2} million samples/s (target 1)",
+        big.len() as f64 / 1e6,
+        rec.samples.len(),
+        secs,
+        rec.samples.len() as f64 / secs / 1e6
     );
     Ok(())
 }

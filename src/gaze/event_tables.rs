@@ -12,7 +12,8 @@ use super::model::{
 use super::text::{integer, lines, message_text, number, split, Separator};
 
 pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
-    let all = lines(bytes);
+    let text = super::text::decode(bytes);
+    let all = lines(&text);
     let first_table = all
         .iter()
         .position(|(_, l)| l.trim_start().starts_with("Table Header for"))
@@ -44,7 +45,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     let mut notes = Vec::new();
     let mut pending_title: Option<String> = None;
     while i < all.len() {
-        let (no, line) = (all[i].0, &all[i].1);
+        let (no, line) = (all[i].0, all[i].1);
         i += 1;
         let trimmed = line.trim();
         if trimmed.is_empty() {

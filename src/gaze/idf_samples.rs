@@ -78,8 +78,8 @@ fn eye_columns(columns: &[String], e: &str) -> Option<EyeColumns> {
 }
 
 pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
-    let all = lines(bytes);
-    let sep = Separator::Tab;
+    let text = super::text::decode(bytes);
+    let all = lines(&text);
     let header_at = all
         .iter()
         .position(|(_, l)| {
@@ -123,10 +123,82 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     if left.is_none() && right.is_none() {
         notes.push("no `L/R POR X [px]` columns: samples carry no gaze position".to_string());
     }
+    let layout = Layout {
+        columns: &columns,
+        time_c,
+        type_c,
+        trial_c,
+        left: &left,
+        right: &right,
+        stimulus_c,
+    };
+    // Data rows in parallel chunks, merged in file order: the result does not depend on the
+    // number of threads.
+    use rayon::prelude::*;
+    let parts: Vec<(Vec<Sample>, Vec<Message>, RowAccount)> = all[header_at + 1..]
+        .par_chunks(16_384)
+        .map(|chunk| parse_rows(chunk, &layout))
+        .collect();
+    let mut samples = Vec::with_capacity(parts.iter().map(|p| p.0.len()).sum());
+    let mut messages = Vec::new();
+    for (s, m, acc) in parts {
+        samples.extend(s);
+        messages.extend(m);
+        rows.blank_lines += acc.blank_lines;
+        rows.samples += acc.samples;
+        rows.messages += acc.messages;
+        for (reason, first) in acc.unusable {
+            let e = rows
+                .unusable
+                .entry(reason)
+                .or_insert(super::model::FirstSeen {
+                    count: 0,
+                    ..first.clone()
+                });
+            e.count += first.count;
+        }
+    }
+    if samples.len() > 1 && samples.windows(2).any(|w| w[1].time_us < w[0].time_us) {
+        notes.push("sample times go backwards somewhere: kept in file order".into());
+    }
+    Ok(Recording {
+        file: path.to_string(),
+        format,
+        header,
+        columns,
+        samples,
+        messages,
+        events: Vec::new(),
+        rows,
+        notes,
+    })
+}
+
+struct Layout<'a> {
+    columns: &'a [String],
+    time_c: usize,
+    type_c: usize,
+    trial_c: Option<usize>,
+    left: &'a Option<EyeColumns>,
+    right: &'a Option<EyeColumns>,
+    stimulus_c: Option<usize>,
+}
+
+fn parse_rows(chunk: &[(usize, &str)], layout: &Layout) -> (Vec<Sample>, Vec<Message>, RowAccount) {
+    let Layout {
+        columns,
+        time_c,
+        type_c,
+        trial_c,
+        left,
+        right,
+        stimulus_c,
+    } = *layout;
+    let sep = Separator::Tab;
+    let mut rows = RowAccount::default();
     let mut samples = Vec::new();
     let mut messages = Vec::new();
-    'rows: for (no, line) in &all[header_at + 1..] {
-        let no = *no;
+    'rows: for &(no, line) in chunk {
         if line.trim().is_empty() {
             rows.blank_lines += 1;
             continue;
@@ -236,18 +308,5 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             ),
         }
     }
-    if samples.len() > 1 && samples.windows(2).any(|w| w[1].time_us < w[0].time_us) {
-        notes.push("sample times go backwards somewhere: kept in file order".into());
-    }
-    Ok(Recording {
-        file: path.to_string(),
-        format,
-        header,
-        columns,
-        samples,
-        messages,
-        events: Vec::new(),
-        rows,
-        notes,
-    })
+    (samples, messages, rows)
 }

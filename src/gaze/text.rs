@@ -1,16 +1,19 @@
 //! Text-level helpers shared by the SMI readers: lines with numbers, fields with columns,
 //! missing-value markers, lenient numbers.
 
-/// Lines of the file (BOM stripped, CRLF / LF / mixed), with 1-based numbers and the
-/// trailing `\r` removed.
-pub fn lines(bytes: &[u8]) -> Vec<(usize, String)> {
+/// The file as text, BOM stripped. Header text comes from Windows: invalid UTF-8 (cp1252
+/// bytes) is decoded leniently to U+FFFD instead of failing.
+pub fn decode(bytes: &[u8]) -> std::borrow::Cow<'_, str> {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
-    // Header text comes from Windows: decode leniently (cp1252 bytes become U+FFFD).
-    let text = String::from_utf8_lossy(bytes);
-    let mut out: Vec<(usize, String)> = text
+    String::from_utf8_lossy(bytes)
+}
+
+/// Lines (CRLF / LF / mixed) with 1-based numbers and the trailing `\r` removed.
+pub fn lines(text: &str) -> Vec<(usize, &str)> {
+    let mut out: Vec<(usize, &str)> = text
         .split('\n')
         .enumerate()
-        .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l).to_string()))
+        .map(|(i, l)| (i + 1, l.strip_suffix('\r').unwrap_or(l)))
         .collect();
     if out.last().is_some_and(|(_, l)| l.is_empty()) {
         out.pop(); // the newline that ends the last line
