@@ -160,11 +160,53 @@ fn zv1n_events_87_trials_tab_separated() {
 
 #[test]
 fn unreadable_formats_say_what_they_are() {
-    let Some(p) = smi("xiangguo-etg__Ethan_lane_1-1-recording.csv") else {
+    let e = parse_smi(
+        b"Trial,Event Start Trial Time [ms],Event End Trial Time [ms]\n",
+        "stats.txt",
+        None,
+    )
+    .map(|r| r.file)
+    .unwrap_err()
+    .to_string();
+    assert!(e.contains("format B") && e.contains("stats.txt"), "{e}");
+}
+
+#[test]
+fn etg_begaze_raw_data_comma_reexport() {
+    let Some(r) = read("xiangguo-etg__Ethan_lane_1-1-recording.csv") else {
         return;
     };
-    let e = read_smi(&p, None).unwrap_err().to_string();
-    assert!(e.contains("C2") && e.contains("Ethan_lane"), "{e}");
+    assert_eq!(r.format, SmiFormat::BeGazeRaw);
+    assert_eq!((r.rows.samples, r.rows.unusable_total()), (11_111, 0));
+    assert!(r.notes.iter().any(|n| n.contains("re-exported")));
+    let s = &r.samples[0];
+    assert_eq!(s.time_us, 86_386_700, "86386.7 ms");
+    assert_eq!(s.trial, 1, "Trial001");
+    let (b, rt) = (s.binocular.unwrap(), s.right.unwrap());
+    assert_eq!((b.x, b.y), (140.6, 392.6));
+    assert_eq!(
+        (rt.x, rt.y, rt.pupil),
+        (-11.9, -176.6, Some(4.0)),
+        "negative POR is kept (scene camera)"
+    );
+    assert!(s.left.is_none(), "this export has no left-eye columns");
+    assert_eq!(s.binocular_event.as_deref(), Some("Blink"));
+    assert_eq!(r.header.subject.as_deref(), Some("Ethan lane 1_2"));
+    let count = |c: &str| {
+        r.samples
+            .iter()
+            .filter(|s| s.binocular_event.as_deref() == Some(c))
+            .count()
+    };
+    assert_eq!(
+        (
+            count("Visual Intake"),
+            count("Saccade"),
+            count("Blink"),
+            count("-")
+        ),
+        (7787, 1479, 1554, 291)
+    );
 }
 
 #[test]
@@ -192,6 +234,7 @@ fn real_files() -> Vec<Vec<u8>> {
         "emip__156_rawdata.tsv",
         "pymovements__didec_example.txt",
         "zv1n-pygaze__events.txt",
+        "xiangguo-etg__Ethan_lane_1-1-recording.csv",
     ]
     .iter()
     .map(|f| {
@@ -206,13 +249,13 @@ proptest! {
 
     #[test]
     fn arbitrary_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..600)) {
-        for f in [None, Some(SmiFormat::IdfSamples), Some(SmiFormat::EventTables)] {
+        for f in [None, Some(SmiFormat::IdfSamples), Some(SmiFormat::EventTables), Some(SmiFormat::BeGazeRaw)] {
             let _ = parse_smi(&bytes, "fuzz", f);
         }
     }
 
     #[test]
-    fn mutated_real_files_never_panic_and_account_for_every_line(which in 0usize..5, seed in any::<u64>(), edits in 1usize..20) {
+    fn mutated_real_files_never_panic_and_account_for_every_line(which in 0usize..6, seed in any::<u64>(), edits in 1usize..20) {
         let files = real_files();
         if !files.is_empty() {
             let mut b = files[which].clone();
@@ -258,6 +301,8 @@ mod fixation_tests {
                     trial: 1,
                     left: Some(e),
                     right: Some(e),
+                    binocular: None,
+                    binocular_event: None,
                     left_event: None,
                     right_event: None,
                     stimulus: None,
@@ -474,7 +519,7 @@ mod writer_round_trip {
                 t += 4000;
                 // A missing eye reads back as an invalid (0, 0) eye: write what a tracker writes.
                 let fill = |e: &Option<EyeSample>| Some(e.unwrap_or(EyeSample { x: 0.0, y: 0.0, pupil: None, valid: false }));
-                Sample { time_us: t, trial: *trial, left: fill(l), right: fill(r), left_event: None, right_event: None, stimulus: None }
+                Sample { time_us: t, trial: *trial, left: fill(l), right: fill(r), binocular: None, binocular_event: None, left_event: None, right_event: None, stimulus: None }
             }).collect();
             let messages: Vec<Message> = texts.iter().enumerate().map(|(k, text)| Message { time_us: 1_000_000 + 10_000 * k as i64 + 1, trial: 1, text: text.clone() }).collect();
             let text = write_samples_a(&header(), &samples, &messages);

@@ -109,6 +109,7 @@ fn gaze(s: &Sample, policy: EyePolicy) -> Option<EyeSample> {
         EyePolicy::Left => ok(s.left),
         EyePolicy::Right => ok(s.right),
         EyePolicy::Average | EyePolicy::Best => match (ok(s.left), ok(s.right)) {
+            (None, None) => ok(s.binocular),
             (Some(l), Some(r)) => Some(EyeSample {
                 x: 0.5 * (l.x + r.x),
                 y: 0.5 * (l.y + r.y),
@@ -134,7 +135,10 @@ pub fn resolve_policy(rec: &Recording, policy: EyePolicy) -> EyePolicy {
             .filter(|s| f(s).is_some_and(|e| e.valid))
             .count()
     };
-    if count(|s| s.left) >= count(|s| s.right) {
+    let (l, r) = (count(|s| s.left), count(|s| s.right));
+    if l == 0 && r == 0 {
+        EyePolicy::Average // only a binocular point (C2), or nothing valid
+    } else if l >= r {
         EyePolicy::Left
     } else {
         EyePolicy::Right

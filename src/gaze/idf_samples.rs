@@ -294,6 +294,8 @@ fn parse_rows(chunk: &[(usize, &str)], layout: &Layout) -> (Vec<Sample>, Vec<Mes
                     trial,
                     left: left_eye,
                     right: right_eye,
+                    binocular: None,
+                    binocular_event: None,
                     left_event,
                     right_event,
                     stimulus: stimulus_c.map(|i| f[i].1.trim().to_string()),

@@ -19,6 +19,10 @@ pub enum SmiFormat {
     #[value(name = "c1")]
     #[serde(rename = "C1")]
     EventTables,
+    /// BeGaze "Raw Data" export: `RecordingTime [ms]`, one row per sample, `-` for missing.
+    #[value(name = "c2")]
+    #[serde(rename = "C2")]
+    BeGazeRaw,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
@@ -48,6 +52,10 @@ pub struct Sample {
     pub trial: u32,
     pub left: Option<EyeSample>,
     pub right: Option<EyeSample>,
+    /// BeGaze's binocular point of regard (format C2), when exported.
+    pub binocular: Option<EyeSample>,
+    /// BeGaze's binocular event category (`Visual Intake`, `Saccade`, `Blink`, `-`; C2).
+    pub binocular_event: Option<String>,
     /// BeGaze's per-eye event labels (`Fixation`, `Saccade`, `Blink`, `-`), when exported.
     pub left_event: Option<String>,
     pub right_event: Option<String>,
