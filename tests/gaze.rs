@@ -159,7 +159,7 @@ fn zv1n_events_87_trials_tab_separated() {
 }
 
 #[test]
-fn unreadable_formats_say_what_they_are() {
+fn malformed_or_unknown_files_say_what_and_where() {
     let e = parse_smi(
         b"Trial,Event Start Trial Time [ms],Event End Trial Time [ms]\n",
         "stats.txt",
@@ -168,7 +168,18 @@ fn unreadable_formats_say_what_they_are() {
     .map(|r| r.file)
     .unwrap_err()
     .to_string();
-    assert!(e.contains("format B") && e.contains("stats.txt"), "{e}");
+    assert_eq!(
+        e,
+        "stats.txt:1:1: no `Category` (or `Category Left/Right/Binocular`) column"
+    );
+    let e = parse_smi(b"hello\nworld\n", "notes.txt", None)
+        .map(|r| r.file)
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("notes.txt: not a recognized SMI export"),
+        "{e}"
+    );
 }
 
 #[test]
@@ -546,7 +557,7 @@ mod writer_round_trip {
                     x: located.then_some(x), y: located.then_some(y),
                     end_x: (kind == EventKind::Saccade).then_some(y), end_y: (kind == EventKind::Saccade).then_some(x),
                     dispersion_x: (kind == EventKind::Fixation).then_some(12.0), dispersion_y: (kind == EventKind::Fixation).then_some(7.0),
-                    pupil_x: (kind == EventKind::Fixation).then_some(16.5), pupil_y: (kind == EventKind::Fixation).then_some(16.25),
+                    pupil_x: (kind == EventKind::Fixation).then_some(16.5), pupil_y: (kind == EventKind::Fixation).then_some(16.25), stimulus: None,
                 }
             }).collect();
             let messages = vec![Message { time_us: 5, trial: 1, text: "bunny.mp4".into() }];
@@ -559,4 +570,69 @@ mod writer_round_trip {
             prop_assert_eq!(&back.messages, &messages);
         }
     }
+}
+
+/// Format B has no real file here: these follow the column names documented in
+/// shared/docs/smi-formats.md, in the two dialects users produce.
+#[test]
+fn begaze_event_statistics_tab_and_semicolon_decimal_comma() {
+    let tab = "Trial\tStimulus\tParticipant\tCategory\tEye L/R\tEvent Start Trial Time [ms]\tEvent End Trial Time [ms]\tEvent Duration [ms]\tFixation Position X [px]\tFixation Position Y [px]\tFixation Dispersion X [px]\tFixation Dispersion Y [px]\tFixation Average Pupil Diameter [mm]\tSaccade Start Position X [px]\tSaccade Start Position Y [px]\tSaccade End Position X [px]\tSaccade End Position Y [px]\n\
+Trial001\tbunny.mp4\tP07\tFixation\tLeft\t120.5\t420.5\t300.0\t812.3\t400.1\t12\t9\t3.9\t-\t-\t-\t-\n\
+Trial001\tbunny.mp4\tP07\tSaccade\tLeft\t420.5\t460.5\t40.0\t-\t-\t-\t-\t-\t812.3\t400.1\t600.0\t300.0\n\
+Trial001\tbunny.mp4\tP07\tSeparator\t-\t-\t-\t-\t-\t-\t-\t-\t-\t-\t-\t-\t-\n\
+Trial002\tcow.mp4\tP07\tFixation\tRight\t10\t250\t240\t100\t200\t5\t5\t4.1\t-\t-\t-\t-\n";
+    let r = parse_smi(tab.as_bytes(), "Event Statistics - Single - 01.txt", None).unwrap();
+    assert_eq!(r.format, SmiFormat::EventStatistics);
+    assert_eq!(
+        (r.rows.events, r.rows.unusable_total(), r.rows.accounted()),
+        (3, 1, r.rows.lines)
+    );
+    assert!(r.rows.unusable.keys().any(|k| k.contains("Separator")));
+    assert_eq!(r.header.subject.as_deref(), Some("P07"));
+    let f = &r.events[0];
+    assert_eq!(
+        (f.kind, f.eye, f.trial, f.start_us, f.end_us, f.duration_us),
+        (EventKind::Fixation, Eye::Left, 1, 120_500, 420_500, 300_000)
+    );
+    assert_eq!(
+        (f.x, f.y, f.stimulus.as_deref()),
+        (Some(812.3), Some(400.1), Some("bunny.mp4"))
+    );
+    let s = &r.events[1];
+    assert_eq!(
+        (s.kind, s.x, s.end_x),
+        (EventKind::Saccade, Some(812.3), Some(600.0))
+    );
+    assert_eq!((r.events[2].trial, r.events[2].eye), (2, Eye::Right));
+
+    let semicolon = "Trial;Stimulus;Participant;Category Binocular;Event Start Trial Time [ms];Event End Trial Time [ms];Event Duration [ms];Fixation Position X [px];Fixation Position Y [px]\n\
+Trial001;bunny.mp4;P08;Visual Intake;1000,5;1350,5;350,0;640,25;512,75\n\
+Trial001;bunny.mp4;P08;-;1350,5;1400,0;49,5;-;-\n\
+Trial001;bunny.mp4;P08;Fixation;1400,0;abc;1,0;1;1\n";
+    let r = parse_smi(semicolon.as_bytes(), "stats.csv", None).unwrap();
+    assert_eq!((r.rows.events, r.rows.unusable_total()), (1, 2));
+    let e = &r.events[0];
+    assert_eq!(
+        (e.eye, e.start_us, e.x, e.y),
+        (Eye::Binocular, 1_000_500, Some(640.25), Some(512.75)),
+        "decimal comma read"
+    );
+    let bad = &r.rows.unusable["`Event End Trial Time [ms]` is not a number"];
+    assert_eq!(bad.line, 4);
+    // Fixations from a binocular-only export use the binocular stream, named by its stimulus,
+    // with the trial-relative start as the offset from onset.
+    use meshgaze::gaze::fixations::{fixations, Detector, DetectorParams, EyePolicy};
+    let fx = fixations(
+        &r,
+        "P08",
+        Detector::Events,
+        EyePolicy::Best,
+        &DetectorParams::default(),
+    )
+    .unwrap();
+    assert_eq!(fx.len(), 1);
+    assert_eq!(
+        (fx[0].eye, fx[0].stimulus.as_str(), fx[0].onset_offset_us),
+        ("binocular", "bunny.mp4", Some(1_000_500))
+    );
 }

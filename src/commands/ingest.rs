@@ -16,10 +16,10 @@ use meshgaze::stimulus::Protocol;
 
 /// Read SMI eye-tracker exports, find fixations, apply the protocol's filter, report quality.
 ///
-/// Reads IDF Converter sample text (format A, `## [iView]`), BeGaze sample exports (A') and
+/// Reads IDF Converter sample text (format A, `## [iView]`), BeGaze sample exports (A'),
 /// IDF Event Detector / BeGaze event text (C1, `Table Header for …`; TAB, comma or the
-/// space-damaged variant), detected from content or set with --format. BeGaze Raw Data (C2)
-/// and Event Statistics (B) are recognized and refused with a clear message (not yet read).
+/// space-damaged variant), BeGaze Raw Data (C2) and BeGaze Event Statistics (B; separator and
+/// decimal comma sniffed), detected from content or set with --format.
 /// Every line of every file is accounted for: rows that cannot be used are counted by reason
 /// with the line and column of the first one.
 ///

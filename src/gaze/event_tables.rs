@@ -213,6 +213,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             dispersion_y,
             pupil_x,
             pupil_y,
+            stimulus: None,
         });
         rows.events += 1;
     }

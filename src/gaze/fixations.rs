@@ -99,6 +99,7 @@ fn eye_name(e: Eye) -> &'static str {
     match e {
         Eye::Left => "left",
         Eye::Right => "right",
+        Eye::Binocular => "binocular",
     }
 }
 
@@ -146,6 +147,8 @@ pub fn resolve_policy(rec: &Recording, policy: EyePolicy) -> EyePolicy {
 }
 
 struct Raw {
+    /// The stimulus the export itself names (format B), which then wins over messages.
+    stimulus: Option<String>,
     trial: u32,
     start_us: i64,
     end_us: i64,
@@ -175,6 +178,7 @@ fn summarize(points: &[(i64, EyeSample)], trial: u32, sample_us: i64) -> Raw {
         pupils.extend(e.pupil);
     }
     Raw {
+        stimulus: None,
         trial,
         start_us: points[0].0,
         // A sample stands for the interval up to the next one.
@@ -353,15 +357,27 @@ pub fn fixations(
                     rec.file
                 ));
             }
-            let want = match policy {
+            let preferred = match policy {
                 EyePolicy::Right => Eye::Right,
                 _ => Eye::Left,
+            };
+            // Exports with only a binocular stream (BeGaze) use it whatever the policy.
+            let has = |eye: Eye| {
+                rec.events
+                    .iter()
+                    .any(|e| e.kind == EventKind::Fixation && e.eye == eye)
+            };
+            let want = if has(preferred) || !has(Eye::Binocular) {
+                preferred
+            } else {
+                Eye::Binocular
             };
             let raw = rec
                 .events
                 .iter()
                 .filter(|e| e.kind == EventKind::Fixation && e.eye == want)
                 .map(|e| Raw {
+                    stimulus: e.stimulus.clone(),
                     trial: e.trial,
                     start_us: e.start_us,
                     end_us: e.end_us,
@@ -400,7 +416,11 @@ pub fn fixations(
     Ok(raw
         .into_iter()
         .map(|r| {
-            let (stimulus, onset) = stimulus_at(rec, r.trial, r.start_us);
+            // Format B times count from the trial's (stimulus's) start: the offset is the time.
+            let (stimulus, onset) = match &r.stimulus {
+                Some(s) => (s.clone(), Some(0)),
+                None => stimulus_at(rec, r.trial, r.start_us),
+            };
             let on_screen = r.x.is_finite()
                 && r.y.is_finite()
                 && area.is_none_or(|[w, h]| (0.0..=w).contains(&r.x) && (0.0..=h).contains(&r.y));

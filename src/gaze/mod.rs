@@ -1,7 +1,8 @@
-//! SMI RED / iView X / BeGaze text exports: detection and readers (formats A, A', C1, C2). Nothing is dropped
+//! SMI RED / iView X / BeGaze text exports: detection and readers (formats A, A', B, C1, C2). Nothing is dropped
 //! silently: every line of a file is a header line, a blank line, a sample, a message, an
 //! event, or counted as unusable with its reason and the position of the first such line.
 pub mod begaze_raw;
+pub mod event_statistics;
 pub mod event_tables;
 pub mod fixations;
 pub mod idf_samples;
@@ -39,7 +40,7 @@ pub fn detect_format(bytes: &[u8]) -> Result<SmiFormat, String> {
         return Ok(SmiFormat::BeGazeRaw);
     }
     if first.contains("Event Start Trial Time [ms]") {
-        return Err("a BeGaze \"Event Statistics\" export (format B): recognized, but this meshgaze cannot read it yet".into());
+        return Ok(SmiFormat::EventStatistics);
     }
     Err("not a recognized SMI export: expected a `## [iView]`/`## [BeGaze]` sample file or a `Table Header for …` event file".into())
 }
@@ -61,6 +62,7 @@ pub fn parse_smi(
         SmiFormat::IdfSamples | SmiFormat::BeGazeSamples => idf_samples::read(bytes, path)?,
         SmiFormat::EventTables => event_tables::read(bytes, path)?,
         SmiFormat::BeGazeRaw => begaze_raw::read(bytes, path)?,
+        SmiFormat::EventStatistics => event_statistics::read(bytes, path)?,
     };
     if format == SmiFormat::BeGazeSamples {
         r.format = SmiFormat::BeGazeSamples;

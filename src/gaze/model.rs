@@ -23,12 +23,18 @@ pub enum SmiFormat {
     #[value(name = "c2")]
     #[serde(rename = "C2")]
     BeGazeRaw,
+    /// BeGaze Metrics Export "Event Statistics": one row per event, times in ms from trial start.
+    #[value(name = "b")]
+    #[serde(rename = "B")]
+    EventStatistics,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
 pub enum Eye {
     Left,
     Right,
+    /// BeGaze's binocular event stream (`Category Binocular`).
+    Binocular,
 }
 
 /// One eye in one sample. Kept even when invalid, so nothing is lost; `valid` says whether
@@ -99,6 +105,8 @@ pub struct Event {
     /// Average pupil size X, Y (camera px) of a fixation.
     pub pupil_x: Option<f64>,
     pub pupil_y: Option<f64>,
+    /// The stimulus the export names for this event (format B), when it does.
+    pub stimulus: Option<String>,
 }
 
 /// Header facts meshgaze uses; every raw `key: value` line is kept too.

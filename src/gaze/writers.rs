@@ -117,7 +117,9 @@ pub fn write_events_c1(header: &Header, events: &[Event], messages: &[Message]) 
     for e in sorted {
         let eye = match e.eye {
             Eye::Left => "L",
+            // C1 has no binocular stream: write it as the left eye.
             Eye::Right => "R",
+            Eye::Binocular => "L",
         };
         let head = |kind: &str| {
             format!(
