@@ -276,3 +276,29 @@ fn a_short_stimulus_decodes_back_to_what_was_rendered_and_repeats_byte_for_byte(
     assert_eq!(key.get_pixel(280, 160).0, [255, 255, 255]);
     assert_eq!(key.get_pixel(2, 2).0, [0, 0, 0], "counter background");
 }
+
+#[test]
+fn detector_settings_live_in_the_protocol_and_convert_degrees_to_pixels() {
+    let (p, text) = hu2020();
+    assert_eq!(
+        (
+            p.fixations.idt_max_dispersion_px,
+            p.fixations.min_duration_ms,
+            p.fixations.ivt_max_velocity_deg_s
+        ),
+        (100.0, 80.0, 40.0)
+    );
+    // 1680 px over 473.8 mm seen from 1025 mm: 17.89 mm, i.e. 63.4 px, per degree.
+    let ppd = p.display.pixels_per_degree();
+    assert!((ppd - 63.44).abs() < 0.05, "{ppd}");
+    // Older protocol files without the detector keys still read, with SMI's defaults.
+    let old: String = text
+        .lines()
+        .filter(|l| {
+            !l.starts_with("idt_") && !l.starts_with("min_duration") && !l.starts_with("ivt_")
+        })
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let q = Protocol::from_toml(&old, "old.toml").unwrap();
+    assert_eq!(q.fixations.idt_max_dispersion_px, 100.0);
+}

@@ -53,15 +53,15 @@ pub struct IngestArgs {
     /// Subject id (default: the header's Subject, else the file name).
     #[arg(long)]
     pub subject: Option<String>,
-    /// I-DT: largest dispersion (x range + y range) in pixels.
-    #[arg(long, default_value_t = 100.0)]
-    pub max_dispersion_px: f64,
-    /// Shortest fixation in ms.
-    #[arg(long, default_value_t = 80.0)]
-    pub min_duration_ms: f64,
-    /// I-VT: largest fixation speed in pixels per second.
-    #[arg(long, default_value_t = 1000.0)]
-    pub max_velocity_px_s: f64,
+    /// I-DT: largest dispersion (x range + y range) in pixels [default: the protocol's].
+    #[arg(long)]
+    pub max_dispersion_px: Option<f64>,
+    /// Shortest fixation in ms [default: the protocol's].
+    #[arg(long)]
+    pub min_duration_ms: Option<f64>,
+    /// I-VT: largest fixation speed in degrees per second [default: the protocol's].
+    #[arg(long)]
+    pub max_velocity_deg_s: Option<f64>,
     /// Also write every sample to samples.csv.
     #[arg(long)]
     pub samples: bool,
@@ -101,9 +101,14 @@ pub fn run(args: IngestArgs) -> Result<()> {
     let (protocol, _) = Protocol::load(&args.protocol)?;
     let rules = &protocol.fixations;
     let params = DetectorParams {
-        max_dispersion_px: args.max_dispersion_px,
-        min_duration_ms: args.min_duration_ms,
-        max_velocity_px_s: args.max_velocity_px_s,
+        max_dispersion_px: args
+            .max_dispersion_px
+            .unwrap_or(rules.idt_max_dispersion_px),
+        min_duration_ms: args.min_duration_ms.unwrap_or(rules.min_duration_ms),
+        max_velocity_px_s: args
+            .max_velocity_deg_s
+            .unwrap_or(rules.ivt_max_velocity_deg_s)
+            * protocol.display.pixels_per_degree(),
         ..DetectorParams::default()
     };
     std::fs::create_dir_all(&args.output)
@@ -151,11 +156,11 @@ pub fn run(args: IngestArgs) -> Result<()> {
             }
         }
         let interval_ms = meshgaze::gaze::fixations::sample_interval_us(&rec) as f64 / 1000.0;
-        if !rec.samples.is_empty() && args.min_duration_ms < interval_ms && !args.quiet {
+        if !rec.samples.is_empty() && params.min_duration_ms < interval_ms && !args.quiet {
             eprintln!(
-                "warning: {}: --min-duration-ms {} is shorter than one sample ({interval_ms:.1} ms)",
+                "warning: {}: the minimum fixation duration {} ms is shorter than one sample ({interval_ms:.1} ms)",
                 file.display(),
-                args.min_duration_ms
+                params.min_duration_ms
             );
         }
         let mut fx =

@@ -193,6 +193,37 @@ pub struct FixationRules {
     pub calibration_accept_deg: f64,
     pub tracker_accuracy_deg: f64,
     pub during_move: DuringMove,
+    /// I-DT: largest dispersion, (max x − min x) + (max y − min y) in pixels (SMI's low-speed
+    /// detector default 100 px).
+    #[serde(default = "default_dispersion")]
+    pub idt_max_dispersion_px: f64,
+    /// Shortest fixation either detector reports (SMI's low-speed default 80 ms).
+    #[serde(default = "default_min_duration")]
+    pub min_duration_ms: f64,
+    /// I-VT: largest gaze speed inside a fixation, in degrees of visual angle per second,
+    /// converted to pixels with the display's size and mean viewing distance.
+    #[serde(default = "default_velocity")]
+    pub ivt_max_velocity_deg_s: f64,
+}
+
+fn default_dispersion() -> f64 {
+    100.0
+}
+fn default_min_duration() -> f64 {
+    80.0
+}
+fn default_velocity() -> f64 {
+    40.0
+}
+
+impl Display {
+    /// Screen pixels per degree of visual angle at the mean viewing distance (centre of the
+    /// screen).
+    pub fn pixels_per_degree(&self) -> f64 {
+        let distance = 0.5 * (self.viewing_distance_mm[0] + self.viewing_distance_mm[1]);
+        let mm_per_degree = distance * 1f64.to_radians().tan();
+        mm_per_degree * self.width_px as f64 / self.width_mm
+    }
 }
 
 impl Protocol {
