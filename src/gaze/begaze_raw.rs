@@ -4,22 +4,12 @@
 //! file is a pandas comma re-export). Times are milliseconds since the recording started and
 //! become integer microseconds.
 use super::model::{EyeSample, GazeError, Header, Recording, RowAccount, Sample, SmiFormat};
-use super::text::{decode, lines, number, split, Separator};
+use super::text::{decode, header_row, lines, number, split, Separator};
 
 pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     let text = decode(bytes);
     let all = lines(&text);
-    let Some(&(_, first)) = all.first() else {
-        return Err(GazeError::File {
-            path: path.to_string(),
-            message: "the file is empty".into(),
-        });
-    };
-    let sep = Separator::sniff(first);
-    let columns: Vec<String> = split(first, sep)
-        .iter()
-        .map(|(_, c)| c.trim().to_string())
-        .collect();
+    let (sep, columns) = header_row(&all, path)?;
     let col = |name: &str| columns.iter().position(|c| c == name);
     let time_c = col("RecordingTime [ms]").ok_or_else(|| GazeError::At {
         path: path.to_string(),

@@ -5,7 +5,7 @@
 //! comes as `Category` + `Eye L/R`, or as per-eye `Category Left/Right/Binocular` columns.
 //! Written from the documented column names: no real file of this format was available.
 use super::model::{Event, EventKind, Eye, GazeError, Header, Recording, RowAccount, SmiFormat};
-use super::text::{decode, is_missing, lines, number, split, Separator};
+use super::text::{decode, header_row, is_missing, lines, number, split, Separator};
 
 /// The field under the column called `name`.
 fn field<'a>(columns: &[String], f: &[(usize, &'a str)], name: &str) -> Option<(usize, &'a str)> {
@@ -28,17 +28,7 @@ fn kind_of(category: &str) -> Option<EventKind> {
 pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     let text = decode(bytes);
     let all = lines(&text);
-    let Some(&(_, first)) = all.first() else {
-        return Err(GazeError::File {
-            path: path.to_string(),
-            message: "the file is empty".into(),
-        });
-    };
-    let sep = Separator::sniff(first);
-    let columns: Vec<String> = split(first, sep)
-        .iter()
-        .map(|(_, c)| c.trim().to_string())
-        .collect();
+    let (sep, columns) = header_row(&all, path)?;
     let col = |name: &str| columns.iter().position(|c| c == name);
     let need = |name: &str| {
         col(name).ok_or_else(|| GazeError::At {

@@ -46,6 +46,26 @@ impl Separator {
     }
 }
 
+/// The header row of a one-table export (formats B and C2): the separator sniffed from it and
+/// the trimmed column names.
+pub(crate) fn header_row(
+    lines: &[(usize, &str)],
+    path: &str,
+) -> Result<(Separator, Vec<String>), super::model::GazeError> {
+    let Some(&(_, first)) = lines.first() else {
+        return Err(super::model::GazeError::File {
+            path: path.to_string(),
+            message: "the file is empty".into(),
+        });
+    };
+    let sep = Separator::sniff(first);
+    let columns = split(first, sep)
+        .iter()
+        .map(|(_, c)| c.trim().to_string())
+        .collect();
+    Ok((sep, columns))
+}
+
 /// Fields of a line with their 1-based starting columns; not trimmed (empty fields kept).
 pub fn split(line: &str, sep: Separator) -> Vec<(usize, &str)> {
     let mut out = Vec::new();
