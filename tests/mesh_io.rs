@@ -313,3 +313,16 @@ proptest! {
         let _ = parse(&bytes, format);
     }
 }
+
+/// Found by `cargo fuzz run mesh_readers`: an ASCII PLY header claiming 1.9e15 vertices made
+/// the reader reserve memory for all of them and abort. Counts are now bounded by the bytes left.
+#[test]
+fn forged_ascii_element_count_is_an_error_not_an_abort() {
+    let bytes =
+        common::read_file(&common::repo_root().join("tests/data/fuzz_ply_huge_ascii_count.ply"));
+    let err = parse(&bytes, MeshFormat::Ply).unwrap_err().to_string();
+    assert!(
+        err.contains("1889740737095516") && err.contains("bytes remain"),
+        "{err}"
+    );
+}

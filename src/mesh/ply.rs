@@ -320,9 +320,11 @@ impl<'a> Body<'a> {
         }
     }
 
+    /// Bytes left: every value takes at least one, so counts above this are impossible
+    /// (checked before allocating, so a forged header cannot exhaust memory).
     fn remaining(&self) -> usize {
         match self {
-            Body::Ascii(_) => usize::MAX,
+            Body::Ascii(t) => t.remaining(),
             Body::Binary { data, pos, .. } => data.len() - pos,
         }
     }

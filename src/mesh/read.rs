@@ -164,6 +164,11 @@ impl<'a> Tokens<'a> {
         }
     }
 
+    /// Bytes not read yet: an upper bound on how many values can still follow.
+    pub fn remaining(&self) -> usize {
+        self.data.len() - self.pos
+    }
+
     pub fn starting_at_line(mut self, line: usize) -> Self {
         self.line = line;
         self
