@@ -4,7 +4,7 @@
 //! file is a pandas comma re-export). Times are milliseconds since the recording started and
 //! become integer microseconds.
 use super::model::{EyeSample, GazeError, Header, Recording, RowAccount, Sample, SmiFormat};
-use super::text::{decode, header_row, lines, number, split, Separator};
+use super::text::{decode, header_row, lines, number, table_row, Separator};
 
 pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     let text = decode(bytes);
@@ -39,23 +39,9 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     let mut header = Header::default();
     let mut samples = Vec::new();
     'rows: for &(no, line) in &all[1..] {
-        if line.trim().is_empty() {
-            rows.blank_lines += 1;
+        let Some(f) = table_row(line, no, sep, columns.len(), &mut rows) else {
             continue;
-        }
-        let f = split(line, sep);
-        if f.len() != columns.len() {
-            rows.reject(
-                &format!(
-                    "row with a field count other than the header's {}",
-                    columns.len()
-                ),
-                no,
-                1,
-                line,
-            );
-            continue;
-        }
+        };
         let (tc, tt) = f[time_c];
         let time_us = match number(tt, sep) {
             Ok(Some(ms)) => (ms * 1000.0).round() as i64,

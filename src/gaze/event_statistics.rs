@@ -5,7 +5,7 @@
 //! comes as `Category` + `Eye L/R`, or as per-eye `Category Left/Right/Binocular` columns.
 //! Written from the documented column names: no real file of this format was available.
 use super::model::{Event, EventKind, Eye, GazeError, Header, Recording, RowAccount, SmiFormat};
-use super::text::{decode, header_row, is_missing, lines, number, split, Separator};
+use super::text::{decode, header_row, is_missing, lines, number, table_row, Separator};
 
 /// The field under the column called `name`.
 fn field<'a>(columns: &[String], f: &[(usize, &'a str)], name: &str) -> Option<(usize, &'a str)> {
@@ -73,23 +73,9 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     let mut events = Vec::new();
     let mut number_per_stream = std::collections::HashMap::new();
     'rows: for &(no, line) in &all[1..] {
-        if line.trim().is_empty() {
-            rows.blank_lines += 1;
+        let Some(f) = table_row(line, no, sep, columns.len(), &mut rows) else {
             continue;
-        }
-        let f = split(line, sep);
-        if f.len() != columns.len() {
-            rows.reject(
-                &format!(
-                    "row with a field count other than the header's {}",
-                    columns.len()
-                ),
-                no,
-                1,
-                line,
-            );
-            continue;
-        }
+        };
         // The event's stream: the first category column that names an event.
         let mut found = None;
         for &(c, eye_c, default_eye) in &streams {

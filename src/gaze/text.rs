@@ -66,6 +66,28 @@ pub(crate) fn header_row(
     Ok((sep, columns))
 }
 
+/// The fields of a data row of a one-table export, or None after counting the line: as blank,
+/// or as unusable when its field count differs from the header's.
+pub(crate) fn table_row<'a>(
+    line: &'a str,
+    no: usize,
+    sep: Separator,
+    n_columns: usize,
+    rows: &mut super::model::RowAccount,
+) -> Option<Vec<(usize, &'a str)>> {
+    if line.trim().is_empty() {
+        rows.blank_lines += 1;
+        return None;
+    }
+    let f = split(line, sep);
+    if f.len() != n_columns {
+        let reason = format!("row with a field count other than the header's {n_columns}");
+        rows.reject(&reason, no, 1, line);
+        return None;
+    }
+    Some(f)
+}
+
 /// Fields of a line with their 1-based starting columns; not trimmed (empty fields kept).
 pub fn split(line: &str, sep: Separator) -> Vec<(usize, &str)> {
     let mut out = Vec::new();
