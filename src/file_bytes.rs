@@ -21,3 +21,12 @@ pub fn read_maybe_gzipped(path: &Path) -> Result<Vec<u8>, ReadError> {
         .map_err(ReadError::CorruptGzip)?;
     Ok(out)
 }
+
+impl std::fmt::Display for ReadError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            ReadError::Io(e) => write!(f, "{e}"),
+            ReadError::CorruptGzip(e) => write!(f, "corrupt gzip data: {e}"),
+        }
+    }
+}

@@ -103,23 +103,45 @@ fn read_text(path: &Path) -> Result<String, TruthError> {
     Ok(text.strip_prefix('\u{feff}').unwrap_or(&text).to_string())
 }
 
-fn fields(line: &str) -> Vec<(usize, &str)> {
-    // Comma, tab or space separated; columns are 1-based character offsets.
+/// The file's field separator, from its first line: a comma, tab or semicolon splits strictly
+/// (empty fields stay in place, so an empty `vertex` of a background fixation does not shift
+/// the columns); otherwise runs of spaces separate.
+fn sniff_separator(first_line: &str) -> Option<char> {
+    [',', '\t', ';']
+        .into_iter()
+        .find(|&c| first_line.contains(c))
+}
+
+fn fields(line: &str, sep: Option<char>) -> Vec<(usize, &str)> {
+    // Columns are 1-based character offsets.
     let mut out = Vec::new();
-    let mut start = None;
-    for (i, c) in line.char_indices() {
-        let sep = c == ',' || c == '\t' || c == ' ' || c == ';';
-        match (sep, start) {
-            (true, Some(s)) => {
-                out.push((s + 1, &line[s..i]));
-                start = None;
+    match sep {
+        Some(sep) => {
+            let mut start = 0;
+            for (i, c) in line.char_indices() {
+                if c == sep {
+                    out.push((start + 1, line[start..i].trim()));
+                    start = i + c.len_utf8();
+                }
             }
-            (false, None) => start = Some(i),
-            _ => {}
+            out.push((start + 1, line[start..].trim()));
         }
-    }
-    if let Some(s) = start {
-        out.push((s + 1, line[s..].trim_end()));
+        None => {
+            let mut start = None;
+            for (i, c) in line.char_indices() {
+                match (c.is_whitespace(), start) {
+                    (true, Some(s)) => {
+                        out.push((s + 1, &line[s..i]));
+                        start = None;
+                    }
+                    (false, None) => start = Some(i),
+                    _ => {}
+                }
+            }
+            if let Some(s) = start {
+                out.push((s + 1, line[s..].trim_end()));
+            }
+        }
     }
     out
 }
@@ -148,7 +170,8 @@ pub fn load_ground_truth(
             message: "the file is empty".into(),
         });
     };
-    let header: Vec<String> = fields(first)
+    let sep = sniff_separator(first);
+    let header: Vec<String> = fields(first, sep)
         .iter()
         .map(|(_, f)| f.trim().to_ascii_lowercase())
         .collect();
@@ -170,7 +193,7 @@ pub fn load_ground_truth(
         let mut rows = 0;
         for (no, line) in lines {
             rows += 1;
-            let f = fields(line);
+            let f = fields(line, sep);
             let get = |c: usize, name: &str| {
                 f.get(c).copied().ok_or_else(|| {
                     at(
@@ -250,7 +273,7 @@ pub fn load_ground_truth(
     let mut values = vec![f64::NAN; n_vertices];
     let mut flags = flag_col.map(|_| vec![false; n_vertices]);
     for (row, (no, line)) in body.iter().enumerate() {
-        let f = fields(line);
+        let f = fields(line, sep);
         let vertex = match vertex_col {
             Some(c) => {
                 let (col, t) = f
@@ -328,4 +351,31 @@ pub fn load_ground_truth(
         positive,
         positive_rule: rule,
     }))
+}
+
+/// The fixation set of projected rows (hit and snapped fixations; the rest counted by fate).
+pub fn fixation_truth_from_rows(rows: &[crate::projection::table::ProjectedRow]) -> FixationTruth {
+    let mut subjects: Vec<String> = Vec::new();
+    let mut fixations = Vec::new();
+    let mut rows_not_on_mesh: BTreeMap<String, usize> = BTreeMap::new();
+    for r in rows {
+        match (r.fate().is_some_and(|f| f.on_mesh()), r.vertex) {
+            (true, Some(v)) => {
+                if !subjects.contains(&r.subject) {
+                    subjects.push(r.subject.clone());
+                }
+                fixations.push(Fixation {
+                    subject: r.subject.clone(),
+                    vertex: v,
+                });
+            }
+            _ => *rows_not_on_mesh.entry(r.fate.clone()).or_insert(0) += 1,
+        }
+    }
+    FixationTruth {
+        fixations,
+        subjects,
+        rows: rows.len(),
+        rows_not_on_mesh,
+    }
 }

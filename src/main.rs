@@ -21,6 +21,9 @@ enum Command {
     Score(commands::score::ScoreArgs),
     Stimulus(commands::stimulus::StimulusArgs),
     Ingest(commands::ingest::IngestArgs),
+    Simulate(commands::simulate::SimulateArgs),
+    Project(commands::project::ProjectArgs),
+    Truth(commands::truth::TruthArgs),
     Demo(commands::demo::DemoArgs),
     Bench(commands::bench::BenchArgs),
 }
@@ -32,6 +35,9 @@ fn main() -> std::process::ExitCode {
         Command::Score(args) => commands::score::run(args),
         Command::Stimulus(args) => commands::stimulus::run(args),
         Command::Ingest(args) => commands::ingest::run(args),
+        Command::Simulate(args) => commands::simulate::run(args),
+        Command::Project(args) => commands::project::run(args),
+        Command::Truth(args) => commands::truth::run(args),
         Command::Demo(args) => commands::demo::run(args),
         Command::Bench(args) => commands::bench::run(args),
     };

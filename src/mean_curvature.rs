@@ -161,8 +161,8 @@ pub fn mean_curvature(mesh: &Mesh) -> (Vec<f64>, CurvatureReport) {
     (h, report)
 }
 
-#[cfg(test)]
-pub(crate) mod test_meshes {
+/// Small synthetic meshes with known geometry, for tests and examples.
+pub mod test_meshes {
     use super::*;
 
     /// Icosphere of radius r with `levels` midpoint subdivisions, projected to the sphere.

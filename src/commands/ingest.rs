@@ -5,6 +5,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde::Serialize;
 
+use meshgaze::gaze::fixation_table::{write_fixations_csv, FixationRow};
 use meshgaze::gaze::fixations::{
     apply_protocol_filter, fixations, Detector, DetectorParams, EyePolicy, Fixation,
 };
@@ -233,34 +234,11 @@ pub fn run(args: IngestArgs) -> Result<()> {
         eprintln!("warning: no fixations found");
     }
     let p = args.output.join("fixations.csv");
-    let mut w = std::io::BufWriter::new(
-        std::fs::File::create(&p).with_context(|| format!("cannot create {}", p.display()))?,
-    );
-    writeln!(w, "subject,stimulus,eye,trial,start_us,end_us,duration_ms,x_px,y_px,dispersion_px,pupil,onset_offset_us,fate")?;
-    for f in &all_fix {
-        let stim = if f.stimulus.contains([',', '"', '\n']) {
-            format!("\"{}\"", f.stimulus.replace('"', "\"\""))
-        } else {
-            f.stimulus.clone()
-        };
-        writeln!(
-            w,
-            "{},{stim},{},{},{},{},{},{},{},{},{},{},{}",
-            f.subject,
-            f.eye,
-            f.trial,
-            f.start_us,
-            f.end_us,
-            f.duration_ms,
-            f.x_px,
-            f.y_px,
-            opt(f.dispersion_px),
-            opt(f.pupil),
-            f.onset_offset_us.map_or(String::new(), |o| o.to_string()),
-            f.fate.name()
-        )?;
-    }
-    w.flush()?;
+    let file =
+        std::fs::File::create(&p).with_context(|| format!("cannot create {}", p.display()))?;
+    let rows: Vec<FixationRow> = all_fix.iter().map(FixationRow::from).collect();
+    write_fixations_csv(std::io::BufWriter::new(file), &rows)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
     let q = args.output.join("quality.csv");
     let mut w = std::io::BufWriter::new(std::fs::File::create(&q)?);
     writeln!(w, "subject,stimulus,samples,lost_samples,lost_ms,loss_ratio,declared_rate_hz,measured_rate_hz,precision_rms_px,kept,dropped_first,dropped_last,not_longest,invalid")?;

@@ -162,6 +162,7 @@ struct Sidecar<'a> {
 pub struct SaliencyRun {
     pub gini: f64,
     pub seconds: f64,
+    pub values: Vec<f64>,
 }
 
 /// `PREFIX` without a trailing .csv/.ply/.json, so `-o out.csv` means prefix `out`.
@@ -322,7 +323,11 @@ pub fn compute_and_write(
         }
         eprintln!("wrote {}", sidecar.outputs.join(", "));
     }
-    Ok(SaliencyRun { gini, seconds })
+    Ok(SaliencyRun {
+        gini,
+        seconds,
+        values,
+    })
 }
 
 pub fn run(args: SaliencyArgs) -> Result<()> {

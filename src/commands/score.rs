@@ -320,7 +320,7 @@ pub fn run(args: ScoreArgs) -> Result<()> {
 
 /// AUC-Judd over blur (methods, chance dashed, human ceiling in black) and Lorenz curves of
 /// the unblurred maps with their Gini index.
-fn write_plots(
+pub fn write_plots(
     prefix: &Path,
     mesh: &str,
     maps: &[(String, Vec<f64>)],

@@ -4,6 +4,7 @@
 pub mod begaze_raw;
 pub mod event_statistics;
 pub mod event_tables;
+pub mod fixation_table;
 pub mod fixations;
 pub mod idf_samples;
 pub mod model;

@@ -1,6 +1,7 @@
 //! Stimulus rendering: a protocol and a mesh become a turntable video, the camera timeline
 //! of every frame, and a manifest with the hashes that later stages check.
 pub mod camera;
+pub mod load;
 pub mod overlay;
 pub mod protocol;
 pub mod raster;
@@ -128,7 +129,9 @@ pub fn timeline_header() -> String {
     h.join(",")
 }
 
-fn timeline_row(frame: usize, cam: &CameraState) -> String {
+/// One timeline row (shortest exact float formatting, so a recomputed camera compares byte
+/// for byte).
+pub fn timeline_row(frame: usize, cam: &CameraState) -> String {
     let mut f = vec![
         frame.to_string(),
         format!("{}", cam.time_s * 1000.0),

@@ -19,6 +19,8 @@ pub struct Rasterizer<'a> {
     mesh: &'a Mesh,
     normals: Vec<DVec3>,
     buffers: Visibility,
+    /// Per-vertex albedo (0–255) replacing the material colour, for rendering maps.
+    colors: Option<Vec<[f64; 3]>>,
 }
 
 /// Per-sample results of the visibility pass.
@@ -53,7 +55,14 @@ impl<'a> Rasterizer<'a> {
                 triangle: Vec::new(),
                 bary: Vec::new(),
             },
+            colors: None,
         }
+    }
+
+    /// Paints the mesh with per-vertex colours (interpolated across triangles) instead of
+    /// the protocol's material; None restores the material.
+    pub fn set_vertex_colors(&mut self, colors: Option<Vec<[u8; 3]>>) {
+        self.colors = colors.map(|c| c.iter().map(|v| v.map(|x| x as f64)).collect());
     }
 
     fn visibility(&mut self, cam: &CameraState, scale: usize) {
@@ -153,7 +162,14 @@ impl<'a> Rasterizer<'a> {
                 n = -n; // two-sided: scans with holes show their insides
             }
             let intensity = style.ambient + style.diffuse * n.dot(light).max(0.0);
-            material.map(|m| m * intensity)
+            let albedo = match &self.colors {
+                Some(c) => {
+                    let (c0, c1, c2) = (c[idx[0]], c[idx[1]], c[idx[2]]);
+                    [0, 1, 2].map(|k| c0[k] * b0 + c1[k] * b1 + c2[k] * b2)
+                }
+                None => material,
+            };
+            albedo.map(|m| m * intensity)
         };
         let mut rgb = vec![0u8; w * h * 3];
         rgb.par_chunks_mut(w * 3).enumerate().for_each(|(y, row)| {

@@ -1,0 +1,161 @@
+//! `fixations.csv`, the table `meshgaze ingest` writes and `meshgaze project` reads: one row
+//! per fixation with its subject, stimulus, times, screen position and fate.
+use std::io::Write;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::fixations::Fixation;
+
+pub const HEADER: [&str; 13] = [
+    "subject",
+    "stimulus",
+    "eye",
+    "trial",
+    "start_us",
+    "end_us",
+    "duration_ms",
+    "x_px",
+    "y_px",
+    "dispersion_px",
+    "pupil",
+    "onset_offset_us",
+    "fate",
+];
+
+/// One row of `fixations.csv`, as read back.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct FixationRow {
+    pub subject: String,
+    pub stimulus: String,
+    pub eye: String,
+    pub trial: u32,
+    pub start_us: i64,
+    pub end_us: i64,
+    pub duration_ms: f64,
+    pub x_px: f64,
+    pub y_px: f64,
+    pub dispersion_px: Option<f64>,
+    pub pupil: Option<f64>,
+    /// Start of the fixation after its stimulus onset message, µs.
+    pub onset_offset_us: Option<i64>,
+    pub fate: String,
+}
+
+impl From<&Fixation> for FixationRow {
+    fn from(f: &Fixation) -> FixationRow {
+        FixationRow {
+            subject: f.subject.clone(),
+            stimulus: f.stimulus.clone(),
+            eye: f.eye.to_string(),
+            trial: f.trial,
+            start_us: f.start_us,
+            end_us: f.end_us,
+            duration_ms: f.duration_ms,
+            x_px: f.x_px,
+            y_px: f.y_px,
+            dispersion_px: f.dispersion_px,
+            pupil: f.pupil,
+            onset_offset_us: f.onset_offset_us,
+            fate: f.fate.name().to_string(),
+        }
+    }
+}
+
+/// Writes the table (RFC 4180 quoting, so subjects and stimuli may hold commas).
+pub fn write_fixations_csv<W: Write>(out: W, rows: &[FixationRow]) -> Result<(), String> {
+    let mut w = csv::WriterBuilder::new()
+        .has_headers(false)
+        .from_writer(out);
+    w.write_record(HEADER).map_err(|e| e.to_string())?;
+    for r in rows {
+        w.serialize(r).map_err(|e| e.to_string())?;
+    }
+    w.flush().map_err(|e| e.to_string())
+}
+
+/// Reads a `fixations.csv`; errors name the file, line and field.
+pub fn read_fixations_csv(path: &Path) -> Result<Vec<FixationRow>, String> {
+    let bytes = crate::file_bytes::read_maybe_gzipped(path)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    parse_fixations_csv(&bytes, &path.display().to_string())
+}
+
+pub fn parse_fixations_csv(bytes: &[u8], name: &str) -> Result<Vec<FixationRow>, String> {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
+    let mut r = csv::ReaderBuilder::new().from_reader(bytes);
+    let headers = r.headers().map_err(|e| format!("{name}:1: {e}"))?.clone();
+    for needed in HEADER {
+        if !headers.iter().any(|h| h == needed) {
+            return Err(format!(
+                "{name}:1: no `{needed}` column; is this a fixations.csv written by `meshgaze ingest`? (columns: {})",
+                headers.iter().collect::<Vec<_>>().join(",")
+            ));
+        }
+    }
+    let mut rows = Vec::new();
+    for rec in r.deserialize::<FixationRow>() {
+        match rec {
+            Ok(row) => rows.push(row),
+            Err(e) => {
+                let line = e.position().map_or(0, |p| p.line());
+                let field = match e.kind() {
+                    csv::ErrorKind::Deserialize { err, .. } => err
+                        .field()
+                        .and_then(|i| headers.get(i as usize))
+                        .map(|h| format!(" column `{h}`:"))
+                        .unwrap_or_default(),
+                    _ => String::new(),
+                };
+                let message = match e.kind() {
+                    csv::ErrorKind::Deserialize { err, .. } => err.kind().to_string(),
+                    other => format!("{other:?}"),
+                };
+                return Err(format!("{name}:{line}:{field} {message}"));
+            }
+        }
+    }
+    Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(subject: &str) -> FixationRow {
+        FixationRow {
+            subject: subject.into(),
+            stimulus: "bunny, take \"2\"".into(),
+            eye: "left".into(),
+            trial: 3,
+            start_us: -5,
+            end_us: 250_000,
+            duration_ms: 250.005,
+            x_px: 811.25,
+            y_px: -3.5,
+            dispersion_px: None,
+            pupil: Some(4.25),
+            onset_offset_us: Some(1_000_000),
+            fate: "kept".into(),
+        }
+    }
+
+    #[test]
+    fn round_trips_with_quoting() {
+        let rows = vec![row("s01"), row("a,b")];
+        let mut buf = Vec::new();
+        write_fixations_csv(&mut buf, &rows).unwrap();
+        assert_eq!(parse_fixations_csv(&buf, "f").unwrap(), rows);
+    }
+
+    #[test]
+    fn errors_name_line_and_column() {
+        let mut buf = Vec::new();
+        write_fixations_csv(&mut buf, &[row("s01"), row("s02")]).unwrap();
+        let text = String::from_utf8(buf).unwrap().replace("811.25", "8x1");
+        let e = parse_fixations_csv(text.as_bytes(), "fix.csv").unwrap_err();
+        assert!(e.starts_with("fix.csv:2: column `x_px`:"), "{e}");
+        let e = parse_fixations_csv(b"a,b\n1,2\n", "fix.csv").unwrap_err();
+        assert!(e.contains("no `subject` column"), "{e}");
+    }
+}

@@ -1,0 +1,146 @@
+//! `projected.csv`: one row per fixation with its fate, vertex and surface point. It is the
+//! fixation-set ground-truth format (docs/ground-truth-format.md, format B) that `meshgaze
+//! score` and `meshgaze truth` read.
+use std::io::Write;
+use std::path::Path;
+
+use glam::DVec3;
+use serde::{Deserialize, Serialize};
+
+use super::{ProjectedFixation, ProjectionFate};
+use crate::stimulus::camera::Phase;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ProjectedRow {
+    pub subject: String,
+    pub fixation: usize,
+    pub start_ms: f64,
+    pub duration_ms: f64,
+    pub screen_x: f64,
+    pub screen_y: f64,
+    pub camera_time_s: Option<f64>,
+    pub phase: Option<String>,
+    pub viewpoint: Option<usize>,
+    pub triangle: Option<usize>,
+    pub vertex: Option<usize>,
+    pub x: Option<f64>,
+    pub y: Option<f64>,
+    pub z: Option<f64>,
+    pub snap_px: Option<f64>,
+    pub fate: String,
+}
+
+impl From<&ProjectedFixation> for ProjectedRow {
+    fn from(p: &ProjectedFixation) -> ProjectedRow {
+        ProjectedRow {
+            subject: p.subject.clone(),
+            fixation: p.index,
+            start_ms: p.start_ms,
+            duration_ms: p.duration_ms,
+            screen_x: p.screen_x,
+            screen_y: p.screen_y,
+            camera_time_s: p.camera_time_s,
+            phase: p.phase.map(|ph| ph.name().to_string()),
+            viewpoint: p.viewpoint,
+            triangle: p.triangle,
+            vertex: p.vertex,
+            x: p.point.map(|q| q.x),
+            y: p.point.map(|q| q.y),
+            z: p.point.map(|q| q.z),
+            snap_px: p.snap_px,
+            fate: p.fate.name().to_string(),
+        }
+    }
+}
+
+impl ProjectedRow {
+    pub fn fate(&self) -> Option<ProjectionFate> {
+        ProjectionFate::parse(&self.fate)
+    }
+
+    pub fn point(&self) -> Option<DVec3> {
+        Some(DVec3::new(self.x?, self.y?, self.z?))
+    }
+
+    pub fn phase(&self) -> Option<Phase> {
+        match self.phase.as_deref() {
+            Some("hold") => Some(Phase::Hold),
+            Some("move") => Some(Phase::Move),
+            Some("ended") => Some(Phase::Ended),
+            _ => None,
+        }
+    }
+}
+
+pub fn write_projected_csv<W: Write>(out: W, rows: &[ProjectedRow]) -> Result<(), String> {
+    let mut w = csv::Writer::from_writer(out);
+    for r in rows {
+        w.serialize(r).map_err(|e| e.to_string())?;
+    }
+    if rows.is_empty() {
+        w.write_record([
+            "subject",
+            "fixation",
+            "start_ms",
+            "duration_ms",
+            "screen_x",
+            "screen_y",
+            "camera_time_s",
+            "phase",
+            "viewpoint",
+            "triangle",
+            "vertex",
+            "x",
+            "y",
+            "z",
+            "snap_px",
+            "fate",
+        ])
+        .map_err(|e| e.to_string())?;
+    }
+    w.flush().map_err(|e| e.to_string())
+}
+
+/// Reads a `projected.csv`, checking every fate name and that on-mesh rows have a vertex.
+pub fn read_projected_csv(path: &Path) -> Result<Vec<ProjectedRow>, String> {
+    let name = path.display().to_string();
+    let bytes = crate::file_bytes::read_maybe_gzipped(path).map_err(|e| format!("{name}: {e}"))?;
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes);
+    let mut r = csv::Reader::from_reader(bytes);
+    let headers = r.headers().map_err(|e| format!("{name}:1: {e}"))?.clone();
+    let mut rows = Vec::new();
+    for rec in r.deserialize::<ProjectedRow>() {
+        let row = rec.map_err(|e| {
+            let line = e.position().map_or(0, |p| p.line());
+            match e.kind() {
+                csv::ErrorKind::Deserialize { err, .. } => {
+                    let col = err
+                        .field()
+                        .and_then(|i| headers.get(i as usize))
+                        .unwrap_or("?");
+                    format!("{name}:{line}: column `{col}`: {}", err.kind())
+                }
+                other => format!("{name}:{line}: {other:?}"),
+            }
+        })?;
+        let line = rows.len() + 2;
+        match row.fate() {
+            None => {
+                return Err(format!(
+                    "{name}:{line}: unknown fate `{}` (expected one of {})",
+                    row.fate,
+                    ProjectionFate::ALL.map(|f| f.name()).join(", ")
+                ))
+            }
+            Some(f) if f.on_mesh() && row.vertex.is_none() => {
+                return Err(format!(
+                    "{name}:{line}: a `{}` row needs a vertex",
+                    row.fate
+                ))
+            }
+            _ => {}
+        }
+        rows.push(row);
+    }
+    Ok(rows)
+}

@@ -1,0 +1,737 @@
+//! Virtual observers: synthetic SMI RED250 recordings of people watching a stimulus, with the
+//! true target of every fixation written beside them. They let the whole pipeline (ingest →
+//! filter → project) be checked against a known answer, and give the demo its subjects.
+//!
+//! The model, one subject at a time (all random steps from one seeded ChaCha stream):
+//! * a 1 s lead-in on a central fixation cross, the stimulus onset message, the video, a 0.5 s
+//!   tail on a blank screen (its own message, so tail fixations belong to no stimulus);
+//! * fixations with log-normal durations (median 250 ms, σ_log 0.45, clipped to 100–1200 ms);
+//!   each targets a vertex visible at that moment (on screen, first hit from the eye, and
+//!   facing the camera), drawn with probability ∝ saliency^sharpness, at least
+//!   `min_saccade_deg` away from the current gaze;
+//! * the eye lands off the target by a per-fixation accuracy error (2D Gaussian, RMS radius
+//!   `accuracy_deg`, 0.4° for the RED250) plus per-sample jitter (`precision_deg` RMS per
+//!   axis), converted to pixels at the subject's head distance (uniform in the protocol's
+//!   range);
+//! * saccades follow the main sequence (21 ms + 2.2 ms per degree) with a minimum-jerk path;
+//!   after a fixation, a blink (100–250 ms of lost samples at SMI's (0, 0)) with probability
+//!   `blink_probability`.
+//!
+//! During camera moves the observer keeps looking at the screen point where the target was
+//! when the fixation started (no smooth pursuit): such fixations carry `phase = move`.
+use glam::DVec3;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::Serialize;
+
+use crate::gaze::model::{Event, EventKind, Eye, EyeSample, Header, Message, Sample};
+use crate::mesh::Mesh;
+use crate::projection::{displayed_camera, RayCaster};
+use crate::stimulus::camera::{CameraPlan, CameraState, Phase};
+use crate::stimulus::protocol::Protocol;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ObserverParams {
+    pub subjects: usize,
+    pub seed: u64,
+    pub sample_rate_hz: f64,
+    /// RMS radial accuracy error per fixation, degrees.
+    pub accuracy_deg: f64,
+    /// RMS per-sample jitter per axis, degrees.
+    pub precision_deg: f64,
+    pub fixation_median_ms: f64,
+    pub fixation_sigma_log: f64,
+    pub fixation_min_ms: f64,
+    pub fixation_max_ms: f64,
+    pub min_saccade_deg: f64,
+    pub blink_probability: f64,
+    /// Target probability ∝ saliency^sharpness (saliency min–max normalized).
+    pub sharpness: f64,
+    /// Cosine of the largest angle between a target's normal and the direction to the eye.
+    pub min_facing_cos: f64,
+    pub lead_in_s: f64,
+    pub tail_s: f64,
+}
+
+impl Default for ObserverParams {
+    fn default() -> Self {
+        ObserverParams {
+            subjects: 8,
+            seed: 1,
+            sample_rate_hz: 250.0,
+            accuracy_deg: 0.4,
+            precision_deg: 0.03,
+            fixation_median_ms: 250.0,
+            fixation_sigma_log: 0.45,
+            fixation_min_ms: 100.0,
+            fixation_max_ms: 1200.0,
+            min_saccade_deg: 2.0,
+            blink_probability: 0.05,
+            sharpness: 2.0,
+            min_facing_cos: 0.2,
+            lead_in_s: 1.0,
+            tail_s: 0.5,
+        }
+    }
+}
+
+/// What the virtual observers look at.
+#[derive(Debug, Clone)]
+pub enum TargetModel {
+    /// One value per vertex; higher draws more fixations.
+    Saliency(Vec<f64>),
+    /// Only these vertices (uniformly among the visible ones).
+    Vertices(Vec<usize>),
+}
+
+/// A fixation as the virtual observer made it.
+#[derive(Debug, Clone, Serialize)]
+pub struct TrueFixation {
+    pub subject: String,
+    /// Order within the subject's recording (lead-in and tail included).
+    pub index: usize,
+    pub start_us: i64,
+    pub end_us: i64,
+    /// Start after the stimulus onset, ms (negative in the lead-in).
+    pub start_ms: f64,
+    pub duration_ms: f64,
+    /// `lead-in`, `hold`, `move` or `tail`.
+    pub phase: &'static str,
+    pub viewpoint: Option<usize>,
+    /// The target vertex; None for the cross, the tail, or when nothing was visible.
+    pub vertex: Option<usize>,
+    /// The target's screen position and where the eye actually pointed (px).
+    pub target_x: f64,
+    pub target_y: f64,
+    pub gaze_x: f64,
+    pub gaze_y: f64,
+}
+
+/// One virtual subject's recording.
+#[derive(Debug, Clone)]
+pub struct VirtualSubject {
+    pub id: String,
+    pub head_distance_mm: f64,
+    pub header: Header,
+    pub samples: Vec<Sample>,
+    pub messages: Vec<Message>,
+    pub events: Vec<Event>,
+    pub fixations: Vec<TrueFixation>,
+}
+
+struct Normal<'a>(&'a mut ChaCha8Rng);
+
+impl Normal<'_> {
+    fn sample(&mut self) -> f64 {
+        // Box–Muller; u1 in (0, 1] so the log is finite.
+        let u1: f64 = 1.0 - self.0.random::<f64>();
+        let u2: f64 = self.0.random();
+        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+    }
+}
+
+/// Vertices a viewer could fixate under `cam`: on the picture (with a margin), unoccluded,
+/// and facing the camera.
+fn visible_vertices(
+    caster: &RayCaster,
+    normals: &[DVec3],
+    cam: &CameraState,
+    min_facing_cos: f64,
+    margin_px: f64,
+) -> Vec<(usize, f64, f64)> {
+    let mesh = caster.mesh();
+    let tol = 1e-6 * cam.eye.length().max(1.0);
+    (0..mesh.positions.len())
+        .into_par_iter()
+        .filter_map(|v| {
+            let p = mesh.positions[v];
+            let to_eye = (cam.eye - p).normalize();
+            if normals[v].dot(to_eye) < min_facing_cos {
+                return None;
+            }
+            let (x, y, _) = cam.project(p)?;
+            if x < margin_px
+                || y < margin_px
+                || x > cam.width_px as f64 - margin_px
+                || y > cam.height_px as f64 - margin_px
+            {
+                return None;
+            }
+            // Unoccluded: the first hit along the eye ray is (next to) this vertex.
+            caster
+                .visible_from(cam.eye, p, tol + 1e-4 * (cam.eye - p).length())
+                .then_some((v, x, y))
+        })
+        .collect()
+}
+
+/// Vertices a viewer could look at under one camera: (vertex, screen x, screen y).
+type VisibleSet = std::sync::Arc<Vec<(usize, f64, f64)>>;
+
+fn minimum_jerk(s: f64) -> f64 {
+    s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
+}
+
+/// Simulates `params.subjects` observers. Deterministic for a seed; subjects are independent
+/// streams, so adding subjects does not change the first ones.
+pub fn simulate_observers(
+    mesh: &Mesh,
+    plan: &CameraPlan,
+    protocol: &Protocol,
+    model: &TargetModel,
+    stimulus_name: &str,
+    params: &ObserverParams,
+) -> Result<Vec<VirtualSubject>, String> {
+    if let TargetModel::Saliency(s) = model {
+        if s.len() != mesh.positions.len() {
+            return Err(format!(
+                "the saliency map has {} values but the mesh has {} vertices",
+                s.len(),
+                mesh.positions.len()
+            ));
+        }
+    }
+    if let TargetModel::Vertices(v) = model {
+        if let Some(bad) = v.iter().find(|&&i| i >= mesh.positions.len()) {
+            return Err(format!(
+                "target vertex {bad} is out of range: the mesh has {} vertices",
+                mesh.positions.len()
+            ));
+        }
+    }
+    let caster = RayCaster::new(mesh);
+    let normals = mesh.vertex_normals();
+    let weights: Vec<f64> = match model {
+        TargetModel::Saliency(s) => {
+            let (lo, hi) = s
+                .iter()
+                .filter(|x| x.is_finite())
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+                    (a.min(x), b.max(x))
+                });
+            let span = if hi > lo { hi - lo } else { 1.0 };
+            s.iter()
+                .map(|&x| {
+                    if x.is_finite() {
+                        ((x - lo) / span).powf(params.sharpness) + 1e-3
+                    } else {
+                        0.0
+                    }
+                })
+                .collect()
+        }
+        TargetModel::Vertices(list) => {
+            let mut w = vec![0.0; mesh.positions.len()];
+            for &v in list {
+                w[v] = 1.0;
+            }
+            w
+        }
+    };
+    let fps = protocol.video.fps;
+    // Visible vertices per displayed frame, shared by all subjects.
+    let cache = std::sync::Mutex::new(std::collections::HashMap::<
+        i64,
+        std::sync::Arc<Vec<(usize, f64, f64)>>,
+    >::new());
+    let visible_at = |t: f64| {
+        let frame = (t * fps as f64).floor() as i64;
+        let cam = displayed_camera(plan, fps, t);
+        // Frames of one hold share a camera.
+        let key = if cam.phase == Phase::Hold {
+            -1 - cam.viewpoint as i64
+        } else {
+            frame
+        };
+        if let Some(v) = cache.lock().expect("no panics inside").get(&key) {
+            return (cam, v.clone());
+        }
+        let v = std::sync::Arc::new(visible_vertices(
+            &caster,
+            &normals,
+            &cam,
+            params.min_facing_cos,
+            10.0,
+        ));
+        cache
+            .lock()
+            .expect("no panics inside")
+            .insert(key, v.clone());
+        (cam, v)
+    };
+    (0..params.subjects)
+        .map(|k| {
+            simulate_one(
+                k,
+                plan,
+                protocol,
+                &weights,
+                &visible_at,
+                stimulus_name,
+                params,
+            )
+        })
+        .collect()
+}
+
+#[allow(clippy::too_many_arguments)]
+fn simulate_one(
+    k: usize,
+    plan: &CameraPlan,
+    protocol: &Protocol,
+    weights: &[f64],
+    visible_at: &dyn Fn(f64) -> (CameraState, VisibleSet),
+    stimulus_name: &str,
+    params: &ObserverParams,
+) -> Result<VirtualSubject, String> {
+    let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
+    rng.set_stream(k as u64 + 1);
+    let id = format!("s{:02}", k + 1);
+    let display = &protocol.display;
+    let [d_lo, d_hi] = display.viewing_distance_mm;
+    let head_distance_mm = d_lo + (d_hi - d_lo) * rng.random::<f64>();
+    let ppd =
+        head_distance_mm * 1f64.to_radians().tan() * display.width_px as f64 / display.width_mm;
+    let (w, h) = (display.width_px as f64, display.height_px as f64);
+    let dt_us = (1e6 / params.sample_rate_hz).round() as i64;
+    let base_us: i64 = 1_000_000_000 + 60_000_000 * k as i64;
+    let onset_us = base_us + (params.lead_in_s * 1e6).round() as i64;
+    let duration_s = plan.duration_s();
+    let end_us = onset_us + (duration_s * 1e6).round() as i64;
+    let stop_us = end_us + (params.tail_s * 1e6).round() as i64;
+    let messages = vec![
+        Message {
+            time_us: base_us,
+            trial: 1,
+            text: "fixation-cross.bmp".into(),
+        },
+        Message {
+            time_us: onset_us,
+            trial: 1,
+            text: stimulus_name.to_string(),
+        },
+        Message {
+            time_us: end_us,
+            trial: 1,
+            text: "blank.bmp".into(),
+        },
+    ];
+    let pupil = 3.2 + 0.8 * rng.random::<f64>();
+    let mut samples: Vec<Sample> = Vec::new();
+    let mut events: Vec<Event> = Vec::new();
+    let mut fixations: Vec<TrueFixation> = Vec::new();
+    let mut t_us = base_us;
+    let mut gaze = (0.5 * w, 0.5 * h);
+    let push_sample =
+        |samples: &mut Vec<Sample>, t: i64, pos: Option<(f64, f64)>, rng: &mut ChaCha8Rng| {
+            let eye = |rng: &mut ChaCha8Rng| match pos {
+                Some((x, y)) => {
+                    let mut n = Normal(rng);
+                    let jx = n.sample() * params.precision_deg * ppd;
+                    let jy = n.sample() * params.precision_deg * ppd;
+                    let p = pupil + 0.02 * n.sample();
+                    EyeSample {
+                        x: ((x + jx) * 100.0).round() / 100.0,
+                        y: ((y + jy) * 100.0).round() / 100.0,
+                        pupil: Some((p * 1000.0).round() / 1000.0),
+                        valid: true,
+                    }
+                }
+                None => EyeSample {
+                    x: 0.0,
+                    y: 0.0,
+                    pupil: Some(0.0),
+                    valid: false,
+                },
+            };
+            let left = eye(rng);
+            let right = eye(rng);
+            samples.push(Sample {
+                time_us: t,
+                trial: 1,
+                left: Some(left),
+                right: Some(right),
+                binocular: None,
+                binocular_event: None,
+                left_event: None,
+                right_event: None,
+                stimulus: None,
+            });
+        };
+    let mut number = [0u64; 3];
+    let mut event = |events: &mut Vec<Event>, kind: EventKind, eye: Eye, s: i64, e: i64| {
+        let slot = kind as usize;
+        number[slot] += 1;
+        events.push(Event {
+            kind,
+            eye,
+            trial: 1,
+            number: number[slot],
+            start_us: s,
+            end_us: e,
+            duration_us: e - s,
+            x: None,
+            y: None,
+            end_x: None,
+            end_y: None,
+            dispersion_x: None,
+            dispersion_y: None,
+            pupil_x: None,
+            pupil_y: None,
+            stimulus: None,
+        });
+    };
+    let mut index = 0;
+    while t_us < stop_us {
+        // Where to look next.
+        let t_s = (t_us - onset_us) as f64 / 1e6;
+        let mut fix = TrueFixation {
+            subject: id.clone(),
+            index,
+            start_us: 0,
+            end_us: 0,
+            start_ms: 0.0,
+            duration_ms: 0.0,
+            phase: "lead-in",
+            viewpoint: None,
+            vertex: None,
+            target_x: 0.5 * w,
+            target_y: 0.5 * h,
+            gaze_x: 0.0,
+            gaze_y: 0.0,
+        };
+        if t_s >= duration_s {
+            fix.phase = "tail";
+            // A blank screen: drift around the centre.
+            let mut n = Normal(&mut rng);
+            fix.target_x = 0.5 * w + 3.0 * ppd * n.sample();
+            fix.target_y = 0.5 * h + 3.0 * ppd * n.sample();
+        } else if t_s >= 0.0 {
+            // Choose by the camera about when the eye arrives.
+            let (cam, visible) = visible_at((t_s + 0.04).min(duration_s - 1e-6));
+            fix.phase = cam.phase.name();
+            fix.viewpoint = Some(cam.viewpoint);
+            let min_d = params.min_saccade_deg * ppd;
+            let candidates: Vec<&(usize, f64, f64)> = visible
+                .iter()
+                .filter(|c| weights[c.0] > 0.0)
+                .filter(|c| (c.1 - gaze.0).hypot(c.2 - gaze.1) >= min_d)
+                .collect();
+            let total: f64 = candidates.iter().map(|c| weights[c.0]).sum();
+            if total > 0.0 {
+                let mut r = rng.random::<f64>() * total;
+                let mut pick = candidates[candidates.len() - 1];
+                for c in &candidates {
+                    r -= weights[c.0];
+                    if r <= 0.0 {
+                        pick = c;
+                        break;
+                    }
+                }
+                fix.vertex = Some(pick.0);
+                fix.target_x = pick.1;
+                fix.target_y = pick.2;
+            } else {
+                fix.phase = if cam.phase == Phase::Hold {
+                    "hold"
+                } else {
+                    "move"
+                };
+            }
+        }
+        // Accuracy error: per-axis σ so that the RMS radius is accuracy_deg.
+        let sigma = params.accuracy_deg / std::f64::consts::SQRT_2 * ppd;
+        let (ox, oy) = {
+            let mut n = Normal(&mut rng);
+            (n.sample() * sigma, n.sample() * sigma)
+        };
+        let land = (fix.target_x + ox, fix.target_y + oy);
+        // Saccade (not before the first fixation).
+        if index > 0 {
+            let amp_deg = (land.0 - gaze.0).hypot(land.1 - gaze.1) / ppd;
+            let dur_us = ((21.0 + 2.2 * amp_deg) * 1000.0) as i64;
+            let s0 = t_us;
+            let from = gaze;
+            while t_us < s0 + dur_us && t_us < stop_us {
+                let s = minimum_jerk((t_us - s0) as f64 / dur_us as f64);
+                let p = (
+                    from.0 + s * (land.0 - from.0),
+                    from.1 + s * (land.1 - from.1),
+                );
+                push_sample(&mut samples, t_us, Some(p), &mut rng);
+                t_us += dt_us;
+            }
+            for eye in [Eye::Left, Eye::Right] {
+                event(&mut events, EventKind::Saccade, eye, s0, t_us - dt_us);
+                let e = events.last_mut().expect("just pushed");
+                e.x = Some(from.0);
+                e.y = Some(from.1);
+                e.end_x = Some(land.0);
+                e.end_y = Some(land.1);
+            }
+        }
+        // The fixation: in the lead-in it lasts until shortly after onset (first saccade
+        // latency ~ 200 ms).
+        let dur_ms = if index == 0 {
+            params.lead_in_s * 1000.0 + 150.0 + 100.0 * rng.random::<f64>()
+        } else {
+            let z = Normal(&mut rng).sample();
+            (params.fixation_median_ms * (params.fixation_sigma_log * z).exp())
+                .clamp(params.fixation_min_ms, params.fixation_max_ms)
+        };
+        let f0 = t_us;
+        let f_end = (f0 + (dur_ms * 1000.0) as i64).min(stop_us);
+        let first_sample = samples.len();
+        while t_us < f_end {
+            push_sample(&mut samples, t_us, Some(land), &mut rng);
+            t_us += dt_us;
+        }
+        gaze = land;
+        fix.start_us = f0;
+        fix.end_us = t_us;
+        fix.start_ms = (f0 - onset_us) as f64 / 1000.0;
+        fix.duration_ms = (t_us - f0) as f64 / 1000.0;
+        fix.gaze_x = land.0;
+        fix.gaze_y = land.1;
+        let fs = &samples[first_sample..];
+        if !fs.is_empty() {
+            for (eye, pick) in [
+                (
+                    Eye::Left,
+                    (|s: &Sample| s.left) as fn(&Sample) -> Option<EyeSample>,
+                ),
+                (Eye::Right, |s: &Sample| s.right),
+            ] {
+                let pts: Vec<EyeSample> = fs.iter().filter_map(pick).collect();
+                let n = pts.len() as f64;
+                let mx = pts.iter().map(|p| p.x).sum::<f64>() / n;
+                let my = pts.iter().map(|p| p.y).sum::<f64>() / n;
+                let range = |f: fn(&EyeSample) -> f64| {
+                    let (a, b) = pts
+                        .iter()
+                        .map(f)
+                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                            (a.min(v), b.max(v))
+                        });
+                    b - a
+                };
+                event(&mut events, EventKind::Fixation, eye, f0, t_us - dt_us);
+                let e = events.last_mut().expect("just pushed");
+                e.x = Some((mx * 100.0).round() / 100.0);
+                e.y = Some((my * 100.0).round() / 100.0);
+                e.dispersion_x = Some((range(|p| p.x) * 100.0).round() / 100.0);
+                e.dispersion_y = Some((range(|p| p.y) * 100.0).round() / 100.0);
+                e.pupil_x = Some(pupil);
+                e.pupil_y = Some(pupil);
+            }
+        }
+        fixations.push(fix);
+        index += 1;
+        // A blink after some fixations.
+        if index > 1 && t_us < stop_us && rng.random::<f64>() < params.blink_probability {
+            let b0 = t_us;
+            let b_end = (b0 + ((100.0 + 150.0 * rng.random::<f64>()) * 1000.0) as i64).min(stop_us);
+            while t_us < b_end {
+                push_sample(&mut samples, t_us, None, &mut rng);
+                t_us += dt_us;
+            }
+            for eye in [Eye::Left, Eye::Right] {
+                event(&mut events, EventKind::Blink, eye, b0, t_us - dt_us);
+            }
+        }
+    }
+    let header = Header {
+        banner: None,
+        entries: Vec::new(),
+        sample_rate_hz: Some(params.sample_rate_hz),
+        calibration_area_px: Some([w, h]),
+        stimulus_dimension_mm: Some([display.width_mm, display.height_mm]),
+        head_distance_mm: Some((head_distance_mm * 10.0).round() / 10.0),
+        subject: Some(id.clone()),
+        date: chrono::NaiveDate::from_ymd_opt(2026, 1, 5)
+            .and_then(|d| d.and_hms_opt(10, 0, 0))
+            .map(|d| d + chrono::Duration::minutes(15 * k as i64)),
+        version: None,
+        format_items: Vec::new(),
+    };
+    Ok(VirtualSubject {
+        id,
+        head_distance_mm,
+        header,
+        samples,
+        messages,
+        events,
+        fixations,
+    })
+}
+
+/// A target model independent of every saliency method: the distance of each vertex from the
+/// mesh's area-weighted centroid, min–max normalized. Observers drawn by it favour protruding
+/// parts (ears, limbs, tails), a known pull on attention, without favouring any method.
+pub fn extremity_map(mesh: &Mesh) -> Vec<f64> {
+    let mut centroid = DVec3::ZERO;
+    let mut area = 0.0;
+    for t in 0..mesh.triangles.len() {
+        let a = mesh.triangle_area(t);
+        let [p, q, r] = mesh.triangle(t);
+        centroid += a * (p + q + r) / 3.0;
+        area += a;
+    }
+    if area > 0.0 {
+        centroid /= area;
+    }
+    let d: Vec<f64> = mesh
+        .positions
+        .iter()
+        .map(|p| p.distance(centroid))
+        .collect();
+    let (lo, hi) = d
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &x| {
+            (a.min(x), b.max(x))
+        });
+    d.iter()
+        .map(|&x| if hi > lo { (x - lo) / (hi - lo) } else { 0.0 })
+        .collect()
+}
+
+/// `targets.csv`: the true target of every simulated fixation.
+pub fn write_targets_csv<W: std::io::Write>(
+    out: W,
+    subjects: &[VirtualSubject],
+) -> Result<(), String> {
+    let mut w = csv::Writer::from_writer(out);
+    for s in subjects {
+        for f in &s.fixations {
+            w.serialize(f).map_err(|e| e.to_string())?;
+        }
+    }
+    w.flush().map_err(|e| e.to_string())
+}
+
+/// One row of `targets.csv`, read back.
+#[derive(Debug, Clone, serde::Deserialize)]
+pub struct TargetRow {
+    pub subject: String,
+    pub index: usize,
+    pub start_us: i64,
+    pub end_us: i64,
+    pub start_ms: f64,
+    pub duration_ms: f64,
+    pub phase: String,
+    pub viewpoint: Option<usize>,
+    pub vertex: Option<usize>,
+    pub target_x: f64,
+    pub target_y: f64,
+    pub gaze_x: f64,
+    pub gaze_y: f64,
+}
+
+pub fn read_targets_csv(path: &std::path::Path) -> Result<Vec<TargetRow>, String> {
+    let mut r = csv::Reader::from_path(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    r.deserialize()
+        .map(|x| x.map_err(|e| format!("{}: {e}", path.display())))
+        .collect()
+}
+
+/// How projected fixations compare with the virtual observers' true targets.
+#[derive(Debug, Clone, Serialize, Default)]
+pub struct RoundTrip {
+    /// Projected fixations that passed the filter and whose camera was a hold.
+    pub hold_fixations: usize,
+    /// Of those, matched (by time overlap) to a true fixation with a target vertex.
+    pub matched: usize,
+    /// Matched fixations that landed on the mesh (hit or snapped).
+    pub on_mesh: usize,
+    /// On-mesh fixations whose vertex is seen within 1° of visual angle of the true target
+    /// (the 1° circle around the target, carried onto the surface by the camera).
+    pub within_1deg: usize,
+    /// within_1deg / matched.
+    pub rate: f64,
+    /// Median and 95th percentile of the error in degrees of visual angle.
+    pub median_error_deg: f64,
+    pub p95_error_deg: f64,
+    /// (subject, fixation, fate, error in degrees or NaN) of every matched fixation not
+    /// within 1°, for inspection.
+    pub misses: Vec<(String, usize, String, f64)>,
+}
+
+/// Matches each projected hold-phase fixation to the true fixation it overlaps most and
+/// measures how far its vertex is from the true target in degrees of visual angle, both seen
+/// through the fixation's camera.
+pub fn round_trip(
+    mesh: &Mesh,
+    plan: &CameraPlan,
+    pixels_per_degree: f64,
+    targets: &[TargetRow],
+    projected: &[crate::projection::table::ProjectedRow],
+) -> RoundTrip {
+    use crate::projection::ProjectionFate;
+    let mut r = RoundTrip::default();
+    let mut errors = Vec::new();
+    for p in projected {
+        let Some(fate) = p.fate() else { continue };
+        if p.phase() != Some(Phase::Hold) || fate == ProjectionFate::Filtered {
+            continue;
+        }
+        r.hold_fixations += 1;
+        let (a0, a1) = (p.start_ms, p.start_ms + p.duration_ms);
+        let best = targets
+            .iter()
+            .filter(|t| t.subject == p.subject)
+            .map(|t| {
+                (
+                    t,
+                    (a1.min(t.start_ms + t.duration_ms) - a0.max(t.start_ms)).max(0.0),
+                )
+            })
+            .filter(|(_, o)| *o > 0.0)
+            .max_by(|x, y| x.1.total_cmp(&y.1));
+        let Some((t, _)) = best else { continue };
+        // The target was chosen with the camera of the hold too.
+        let Some(target) = t.vertex.filter(|_| t.phase == "hold") else {
+            continue;
+        };
+        r.matched += 1;
+        let (Some(v), true) = (p.vertex, fate.on_mesh()) else {
+            r.misses
+                .push((p.subject.clone(), p.fixation, p.fate.clone(), f64::NAN));
+            continue;
+        };
+        r.on_mesh += 1;
+        // 1° converted to the surface: the surface points seen within 1° of the target,
+        // i.e. the landed vertex's screen position against the target's, in degrees.
+        let cam = plan.at(p.camera_time_s.unwrap_or(0.0));
+        let (Some(a), Some(b)) = (
+            cam.project(mesh.positions[target]),
+            cam.project(mesh.positions[v]),
+        ) else {
+            continue;
+        };
+        let err_deg = (a.0 - b.0).hypot(a.1 - b.1) / pixels_per_degree;
+        errors.push(err_deg);
+        if err_deg <= 1.0 {
+            r.within_1deg += 1;
+        } else {
+            r.misses
+                .push((p.subject.clone(), p.fixation, p.fate.clone(), err_deg));
+        }
+    }
+    r.rate = if r.matched > 0 {
+        r.within_1deg as f64 / r.matched as f64
+    } else {
+        f64::NAN
+    };
+    errors.sort_by(f64::total_cmp);
+    let q = |f: f64| {
+        if errors.is_empty() {
+            f64::NAN
+        } else {
+            errors[((errors.len() - 1) as f64 * f).round() as usize]
+        }
+    };
+    r.median_error_deg = q(0.5);
+    r.p95_error_deg = q(0.95);
+    r
+}
