@@ -241,12 +241,12 @@ For real data, replace step 2 with your lab's SMI exports (<code>meshgaze ingest
             let c = color_of(&row.subject);
             match row.fate() {
                 Some(ProjectionFate::Hit) => {
-                    disc(&mut img, row.screen_x, row.screen_y, 11.0, c, false)
+                    disc(&mut img, row.screen_x, row.screen_y, 16.0, c, false)
                 }
                 Some(ProjectionFate::Snapped) => {
-                    disc(&mut img, row.screen_x, row.screen_y, 11.0, c, true)
+                    disc(&mut img, row.screen_x, row.screen_y, 16.0, c, true)
                 }
-                _ => cross(&mut img, row.screen_x, row.screen_y, 10.0, c),
+                _ => cross(&mut img, row.screen_x, row.screen_y, 15.0, c),
             }
         }
         let _ = write!(
