@@ -18,6 +18,7 @@ pub mod plot;
 pub mod progress;
 pub mod projection;
 pub mod provenance;
+pub mod robustness;
 pub mod saliency;
 pub mod sampling;
 pub mod scoring;

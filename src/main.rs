@@ -24,6 +24,7 @@ enum Command {
     Simulate(commands::simulate::SimulateArgs),
     Project(commands::project::ProjectArgs),
     Truth(commands::truth::TruthArgs),
+    Experiment(commands::experiment::ExperimentArgs),
     Demo(commands::demo::DemoArgs),
     Bench(commands::bench::BenchArgs),
 }
@@ -38,6 +39,7 @@ fn main() -> std::process::ExitCode {
         Command::Simulate(args) => commands::simulate::run(args),
         Command::Project(args) => commands::project::run(args),
         Command::Truth(args) => commands::truth::run(args),
+        Command::Experiment(args) => commands::experiment::run(args),
         Command::Demo(args) => commands::demo::run(args),
         Command::Bench(args) => commands::bench::run(args),
     };

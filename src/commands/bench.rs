@@ -11,8 +11,9 @@ use meshgaze::saliency::{compute_saliency, sparse_metric_saliency, Method, SmsEx
 
 /// Time SMS at the paper's settings, as in the paper's Table 3.
 ///
-/// Cases: the 35,947-vertex Stanford bunny, and the 50k armadillo subdivided twice (about
-/// 800k vertices). Each case runs in its own process so its peak memory is its own.
+/// Cases: the 35,947-vertex Stanford bunny, the 48k Cyberware horse, the 134k igea, and the
+/// 50k armadillo subdivided twice (about 800k vertices); each is compared with the paper's
+/// row nearest in size. SMS with its steps A/B/C, then MC, MS and SI. Each case runs in its own process so its peak memory is its own.
 /// Prints a Markdown table; --csv also writes it as CSV.
 #[derive(Debug, Args)]
 pub struct BenchArgs {
@@ -45,15 +46,26 @@ struct CaseResult {
     load_s: f64,
     peak_rss_mb: f64,
     paper_total_s: f64,
-    /// Other methods' totals (bunny only): (name, seconds, paper seconds).
+    /// The paper's Table 3 row this case is compared with.
+    paper_row: String,
+    /// Other methods' totals: (name, seconds, paper seconds).
     baselines: Vec<(String, f64, f64)>,
 }
 
-const CASES: [(&str, f64); 2] = [("bunny-35k", 43.5), ("armadillo-subdivided", 48.9)];
+/// A bench case and the row of the paper's Table 3 it is compared with (the nearest in
+/// vertex count): (case, paper mesh, paper SMS total, MC, MS, SI seconds).
+const CASES: [(&str, &str, f64, f64, f64, f64); 4] = [
+    ("bunny-35k", "Bunny 35k", 43.5, 0.5, 12.2, 13.7),
+    ("horse-48k", "Dinosaur 56k", 45.2, 1.8, 28.2, 23.6),
+    ("igea-134k", "Armadillo 172k", 44.3, 2.3, 56.1, 36.5),
+    ("armadillo-subdivided", "Lucy 604k", 48.9, 7.3, 448.0, 67.4),
+];
 
 fn load_case(name: &str, data: &Path) -> Result<Mesh> {
     Ok(match name {
         "bunny-35k" => load_mesh(&data.join("meshes/classic/stanford_bunny/bun_zipper.ply"))?.0,
+        "horse-48k" => load_mesh(&data.join("meshes/classic/cyberware/horse.ply"))?.0,
+        "igea-134k" => load_mesh(&data.join("meshes/classic/cyberware/igea.ply"))?.0,
         "armadillo-subdivided" => {
             let m =
                 load_mesh(&data.join("meshes/classic/decimated_profactor_50k/armadillo.obj"))?.0;
@@ -85,7 +97,7 @@ fn run_case(name: &str, data: &Path, repeat: usize) -> Result<CaseResult> {
         let r = sparse_metric_saliency(&mesh, &params, SmsExtras::default(), &Silent)
             .map_err(|e| anyhow::anyhow!(e))?;
         let tm = &r.report.timings;
-        let paper = CASES.iter().find(|c| c.0 == name).map_or(f64::NAN, |c| c.1);
+        let paper = CASES.iter().find(|c| c.0 == name).map_or(f64::NAN, |c| c.2);
         let cr = CaseResult {
             name: name.to_string(),
             vertices: mesh.positions.len(),
@@ -97,6 +109,10 @@ fn run_case(name: &str, data: &Path, repeat: usize) -> Result<CaseResult> {
             load_s,
             peak_rss_mb: 0.0,
             paper_total_s: paper,
+            paper_row: CASES
+                .iter()
+                .find(|c| c.0 == name)
+                .map_or(String::new(), |c| c.1.to_string()),
             baselines: Vec::new(),
         };
         if best.as_ref().is_none_or(|b| cr.total_s < b.total_s) {
@@ -105,9 +121,8 @@ fn run_case(name: &str, data: &Path, repeat: usize) -> Result<CaseResult> {
     }
     let mut best = best.expect("at least one run");
     best.peak_rss_mb = peak_rss_mb();
-    if name == "bunny-35k" {
-        // The paper's Table 3, Bunny row: MC 0.5 s, MS 12.2 s, SI 13.7 s.
-        for (method, paper) in [(Method::Mc, 0.5), (Method::Ms, 12.2), (Method::Si, 13.7)] {
+    if let Some(&(_, _, _, mc, ms, si)) = CASES.iter().find(|c| c.0 == name) {
+        for (method, paper) in [(Method::Mc, mc), (Method::Ms, ms), (Method::Si, si)] {
             let mut fastest = f64::INFINITY;
             for _ in 0..repeat.max(1) {
                 let out = compute_saliency(method, &mesh, &params, &Silent)
@@ -136,7 +151,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let exe = std::env::current_exe().context("cannot find the meshgaze executable")?;
     let threads = rayon::current_num_threads();
     let mut rows = Vec::new();
-    for (name, _) in CASES {
+    for (name, ..) in CASES {
         eprintln!("bench: {name} ...");
         let out = Command::new(&exe)
             .args([
@@ -160,11 +175,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
         rows.push(serde_json::from_str::<CaseResult>(line.trim())?);
     }
     println!("SMS at the paper's settings (n = 5000, 5 scales, 256³ grid, μ = 0.2, σ = 0.02), {threads} threads:\n");
-    println!("| mesh | vertices | A metric (s) | of which field (s) | B saliency (s) | C interpolation (s) | total (s) | paper total (s) | speed-up | peak RSS (MB) |");
-    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|");
+    println!("| mesh | vertices | A metric (s) | of which field (s) | B saliency (s) | C interpolation (s) | total (s) | paper row | paper total (s) | speed-up | peak RSS (MB) |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|");
     for r in &rows {
         println!(
-            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {:.1} | {:.0}x | {:.0} |",
+            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {:.1} | {:.0}x | {:.0} |",
             r.name,
             r.vertices,
             r.a_s,
@@ -172,23 +187,24 @@ pub fn run(args: BenchArgs) -> Result<()> {
             r.b_s,
             r.c_s,
             r.total_s,
+            r.paper_row,
             r.paper_total_s,
             r.paper_total_s / r.total_s,
             r.peak_rss_mb
         );
     }
+    println!("\nEvery method, total seconds (the paper's Table 3 row in parentheses):\n");
+    println!("| mesh | vertices | SMS | MC | MS | SI |");
+    println!("|---|---:|---:|---:|---:|---:|");
     for r in &rows {
-        if !r.baselines.is_empty() {
-            println!(
-                "\nOther methods on {} (total seconds; the paper's Table 3 beside):\n",
-                r.name
-            );
-            println!("| method | seconds | paper (s) | speed-up |");
-            println!("|---|---:|---:|---:|");
-            for (m, secs, paper) in &r.baselines {
-                println!("| {m} | {secs:.3} | {paper} | {:.0}x |", paper / secs);
-            }
+        let mut line = format!(
+            "| {} | {} | {:.2} ({}) |",
+            r.name, r.vertices, r.total_s, r.paper_total_s
+        );
+        for (_, secs, paper) in &r.baselines {
+            line += &format!(" {secs:.3} ({paper}) |");
         }
+        println!("{line}");
     }
     bench_smi_parse(&args.data)?;
     if !args.skip_stimulus {
@@ -203,12 +219,27 @@ pub fn run(args: BenchArgs) -> Result<()> {
     );
     if let Some(path) = &args.csv {
         let mut w = String::new();
-        w.push_str("mesh,vertices,a_s,field_s,b_s,c_s,total_s,paper_total_s,peak_rss_mb\n");
+        w.push_str("mesh,vertices,method,a_s,field_s,b_s,c_s,total_s,paper_row,paper_total_s,peak_rss_mb\n");
         for r in &rows {
             w.push_str(&format!(
-                "{},{},{},{},{},{},{},{}\n",
-                r.name, r.vertices, r.a_s, r.b_s, r.c_s, r.total_s, r.paper_total_s, r.peak_rss_mb
+                "{},{},sms,{},{},{},{},{},{},{},{}\n",
+                r.name,
+                r.vertices,
+                r.a_s,
+                r.field_s,
+                r.b_s,
+                r.c_s,
+                r.total_s,
+                r.paper_row,
+                r.paper_total_s,
+                r.peak_rss_mb
             ));
+            for (m, secs, paper) in &r.baselines {
+                w.push_str(&format!(
+                    "{},{},{m},,,,,{secs},{},{paper},{}\n",
+                    r.name, r.vertices, r.paper_row, r.peak_rss_mb
+                ));
+            }
         }
         std::fs::write(path, w).with_context(|| format!("cannot write {}", path.display()))?;
     }

@@ -1,5 +1,6 @@
 pub mod bench;
 pub mod demo;
+pub mod experiment;
 pub mod ingest;
 pub mod progress_bar;
 pub mod project;

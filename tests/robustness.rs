@@ -1,0 +1,97 @@
+//! The paper's robustness experiment: each corruption does what it says, and maps travel
+//! back to the original vertices faithfully.
+mod common;
+
+use meshgaze::corruption::{
+    add_normal_noise, boundary_loops, cut_holes, transfer_by_nearest_surface_point,
+};
+use meshgaze::mean_curvature::test_meshes::icosphere;
+use meshgaze::simplification::simplify_to_vertex_count;
+
+#[test]
+fn holes_are_separate_boundary_loops_in_a_closed_mesh() {
+    let sphere = icosphere(1.0, 4);
+    assert_eq!(boundary_loops(&sphere), 0, "an icosphere is closed");
+    for holes in [1, 3, 5] {
+        let (holed, origin) = cut_holes(&sphere, holes, 0.2, 7);
+        assert_eq!(boundary_loops(&holed), holes, "{holes} holes");
+        assert!(holed.triangles.len() < sphere.triangles.len());
+        assert_eq!(origin.len(), holed.positions.len());
+        for (v, &o) in origin.iter().enumerate() {
+            assert_eq!(
+                holed.positions[v], sphere.positions[o],
+                "vertices keep their place"
+            );
+        }
+        // Every vertex left is used by a triangle.
+        let mut used = vec![false; holed.positions.len()];
+        for t in &holed.triangles {
+            for &i in t {
+                used[i as usize] = true;
+            }
+        }
+        assert!(used.iter().all(|u| *u));
+    }
+}
+
+#[test]
+fn noise_moves_vertices_along_their_normals_by_the_asked_amount() {
+    let mesh = common::bunny();
+    let noisy = add_normal_noise(&mesh, 0.2, 3);
+    assert_eq!(noisy.positions.len(), mesh.positions.len());
+    assert_eq!(noisy.triangles, mesh.triangles);
+    let normals = mesh.vertex_normals();
+    let mut sq = 0.0;
+    for ((p, q), n) in mesh.positions.iter().zip(&noisy.positions).zip(&normals) {
+        let d = *q - *p;
+        assert!(
+            d.cross(*n).length() <= 1e-9 * (1.0 + d.length()),
+            "off the normal"
+        );
+        sq += d.length_squared();
+    }
+    let sd = (sq / mesh.positions.len() as f64).sqrt();
+    let want = 0.2 * mesh.mean_edge_length();
+    assert!((sd / want - 1.0).abs() < 0.05, "σ {sd} vs {want}");
+}
+
+#[test]
+fn simplification_reaches_the_asked_vertex_count() {
+    let mesh = common::bunny();
+    let (simple, origin) = simplify_to_vertex_count(&mesh, 2000);
+    let n = simple.positions.len();
+    assert!((1800..=2200).contains(&n), "{n} vertices");
+    assert_eq!(origin.len(), n);
+    for (v, &o) in origin.iter().enumerate() {
+        assert_eq!(simple.positions[v], mesh.positions[o]);
+    }
+}
+
+#[test]
+fn a_map_transfers_back_exactly_at_shared_vertices_and_smoothly_between() {
+    let mesh = common::bunny();
+    let values: Vec<f64> = mesh.positions.iter().map(|p| p.x + 2.0 * p.y).collect();
+    let same = transfer_by_nearest_surface_point(&mesh, &values, &mesh.positions);
+    let mut referenced = vec![false; mesh.positions.len()];
+    for t in &mesh.triangles {
+        for &i in t {
+            referenced[i as usize] = true;
+        }
+    }
+    for v in (0..values.len()).filter(|&v| referenced[v]) {
+        assert!((values[v] - same[v]).abs() < 1e-9, "vertex {v}");
+    }
+    // A linear field carried from a simplified copy stays close (barycentric interpolation
+    // of a linear function is exact on the copy's surface).
+    let (simple, _) = simplify_to_vertex_count(&mesh, 2000);
+    let sv: Vec<f64> = simple.positions.iter().map(|p| p.x + 2.0 * p.y).collect();
+    let back = transfer_by_nearest_surface_point(&simple, &sv, &mesh.positions);
+    let scale = values.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
+        - values.iter().cloned().fold(f64::INFINITY, f64::min);
+    let worst = values
+        .iter()
+        .zip(&back)
+        .map(|(a, b)| (a - b).abs())
+        .fold(0.0, f64::max);
+    assert!(worst < 0.02 * scale, "worst {worst} of range {scale}");
+}
