@@ -85,8 +85,8 @@ pub enum TargetModel {
     Vertices(Vec<usize>),
 }
 
-/// A fixation as the virtual observer made it.
-#[derive(Debug, Clone, Serialize)]
+/// A fixation as the virtual observer made it; one row of targets.csv.
+#[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct TrueFixation {
     pub subject: String,
     /// Order within the subject's recording (lead-in and tail included).
@@ -97,7 +97,7 @@ pub struct TrueFixation {
     pub start_ms: f64,
     pub duration_ms: f64,
     /// `lead-in`, `hold`, `move` or `tail`.
-    pub phase: &'static str,
+    pub phase: String,
     pub viewpoint: Option<usize>,
     /// The target vertex; None for the cross, the tail, or when nothing was visible.
     pub vertex: Option<usize>,
@@ -393,7 +393,7 @@ fn simulate_one(
             end_us: 0,
             start_ms: 0.0,
             duration_ms: 0.0,
-            phase: "lead-in",
+            phase: "lead-in".into(),
             viewpoint: None,
             vertex: None,
             target_x: 0.5 * w,
@@ -402,7 +402,7 @@ fn simulate_one(
             gaze_y: 0.0,
         };
         if t_s >= duration_s {
-            fix.phase = "tail";
+            fix.phase = "tail".into();
             // A blank screen: drift around the centre.
             let mut n = Normal(&mut rng);
             fix.target_x = 0.5 * w + 3.0 * ppd * n.sample();
@@ -410,7 +410,7 @@ fn simulate_one(
         } else if t_s >= 0.0 {
             // Choose by the camera about when the eye arrives.
             let (cam, visible) = visible_at((t_s + 0.04).min(duration_s - 1e-6));
-            fix.phase = cam.phase.name();
+            fix.phase = cam.phase.name().into();
             fix.viewpoint = Some(cam.viewpoint);
             let min_d = params.min_saccade_deg * ppd;
             let candidates: Vec<&(usize, f64, f64)> = visible
@@ -432,12 +432,6 @@ fn simulate_one(
                 fix.vertex = Some(pick.0);
                 fix.target_x = pick.1;
                 fix.target_y = pick.2;
-            } else {
-                fix.phase = if cam.phase == Phase::Hold {
-                    "hold"
-                } else {
-                    "move"
-                };
             }
         }
         // Accuracy error: per-axis σ so that the RMS radius is accuracy_deg.
@@ -610,25 +604,7 @@ pub fn write_targets_csv<W: std::io::Write>(
     w.flush().map_err(|e| e.to_string())
 }
 
-/// One row of `targets.csv`, read back.
-#[derive(Debug, Clone, serde::Deserialize)]
-pub struct TargetRow {
-    pub subject: String,
-    pub index: usize,
-    pub start_us: i64,
-    pub end_us: i64,
-    pub start_ms: f64,
-    pub duration_ms: f64,
-    pub phase: String,
-    pub viewpoint: Option<usize>,
-    pub vertex: Option<usize>,
-    pub target_x: f64,
-    pub target_y: f64,
-    pub gaze_x: f64,
-    pub gaze_y: f64,
-}
-
-pub fn read_targets_csv(path: &std::path::Path) -> Result<Vec<TargetRow>, String> {
+pub fn read_targets_csv(path: &std::path::Path) -> Result<Vec<TrueFixation>, String> {
     let mut r = csv::Reader::from_path(path).map_err(|e| format!("{}: {e}", path.display()))?;
     r.deserialize()
         .map(|x| x.map_err(|e| format!("{}: {e}", path.display())))
@@ -664,7 +640,7 @@ pub fn round_trip(
     mesh: &Mesh,
     plan: &CameraPlan,
     pixels_per_degree: f64,
-    targets: &[TargetRow],
+    targets: &[TrueFixation],
     projected: &[crate::projection::table::ProjectedRow],
 ) -> RoundTrip {
     use crate::projection::ProjectionFate;

@@ -18,7 +18,9 @@ use meshgaze::projection::{
     count_fates, project_fixations, ProjectionFate, ProjectionParams, RayCaster, ScreenFixation,
     ScreenMapping,
 };
-use meshgaze::simulate::{round_trip, simulate_observers, ObserverParams, TargetModel, TargetRow};
+use meshgaze::simulate::{
+    round_trip, simulate_observers, ObserverParams, TargetModel, TrueFixation,
+};
 use meshgaze::stimulus::camera::CameraPlan;
 use meshgaze::stimulus::load::load_stimulus;
 use meshgaze::stimulus::protocol::DuringMove;
@@ -26,27 +28,6 @@ use meshgaze::stimulus::{render_stimulus, FrameImages, Protocol, StimulusOptions
 
 fn hu2020() -> (Protocol, String) {
     Protocol::load(&common::repo_root().join("protocols/hu2020.toml")).expect("protocol")
-}
-
-fn targets_of(s: &meshgaze::simulate::VirtualSubject) -> Vec<TargetRow> {
-    s.fixations
-        .iter()
-        .map(|f| TargetRow {
-            subject: f.subject.clone(),
-            index: f.index,
-            start_us: f.start_us,
-            end_us: f.end_us,
-            start_ms: f.start_ms,
-            duration_ms: f.duration_ms,
-            phase: f.phase.to_string(),
-            viewpoint: f.viewpoint,
-            vertex: f.vertex,
-            target_x: f.target_x,
-            target_y: f.target_y,
-            gaze_x: f.gaze_x,
-            gaze_y: f.gaze_y,
-        })
-        .collect()
 }
 
 /// Runs recordings through ingest (parse, detect, filter) and projection.
@@ -129,7 +110,7 @@ fn virtual_observers_round_trip_to_their_targets() {
         .iter()
         .map(|s| (format!("{}_samples.txt", s.id), a(s)))
         .collect();
-    let targets: Vec<TargetRow> = subjects.iter().flat_map(targets_of).collect();
+    let targets: Vec<TrueFixation> = subjects.iter().flat_map(|s| s.fixations.clone()).collect();
     let ppd = protocol.display.pixels_per_degree();
     for (snap, min_rate) in [
         (None, 0.85),
@@ -187,7 +168,7 @@ fn virtual_observers_round_trip_to_their_targets() {
     let subjects =
         simulate_observers(&mesh, &plan, &protocol, &model, "bunny.mp4", &exact).unwrap();
     let files: Vec<(String, String)> = subjects.iter().map(|s| (s.id.clone(), a(s))).collect();
-    let targets: Vec<TargetRow> = subjects.iter().flat_map(targets_of).collect();
+    let targets: Vec<TrueFixation> = subjects.iter().flat_map(|s| s.fixations.clone()).collect();
     let projected = ingest_and_project(&files, Detector::IDt, &plan, &caster, &protocol, None);
     let rows: Vec<ProjectedRow> = projected.iter().map(ProjectedRow::from).collect();
     let rt = round_trip(&mesh, &plan, ppd, &targets, &rows);

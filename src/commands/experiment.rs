@@ -6,15 +6,15 @@ use clap::{Args, Subcommand};
 use image::RgbImage;
 use serde::Serialize;
 
-use meshgaze::mesh::{load_mesh, ColorRamp, Mesh};
+use meshgaze::mesh::load_mesh;
 use meshgaze::provenance::{InputFile, Provenance};
 use meshgaze::robustness::{robustness, AgreementRow, RobustnessParams};
 use meshgaze::saliency::{Method, SmsParams};
 use meshgaze::stimulus::camera::CameraPlan;
-use meshgaze::stimulus::raster::Rasterizer;
 use meshgaze::stimulus::Protocol;
 
 use super::progress_bar::Bars;
+use super::report::render_map;
 
 /// Rerun the paper's experiments on your own meshes.
 #[derive(Debug, Args)]
@@ -75,29 +75,6 @@ pub fn run(args: ExperimentArgs) -> Result<()> {
     match args.which {
         Experiment::Robustness(a) => run_robustness(a),
     }
-}
-
-fn render(mesh: &Mesh, plan: &CameraPlan, protocol: &Protocol, values: &[f64]) -> RgbImage {
-    let ramp = ColorRamp;
-    let (lo, hi) = values
-        .iter()
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &v| {
-            (a.min(v), b.max(v))
-        });
-    let colors = values
-        .iter()
-        .map(|&v| ramp.rgb(if hi > lo { (v - lo) / (hi - lo) } else { 0.0 }))
-        .collect();
-    let mut r = Rasterizer::new(mesh);
-    r.set_vertex_colors(Some(colors));
-    let t = &protocol.timing;
-    let cam = plan.at(0.5 * t.hold_s);
-    RgbImage::from_raw(
-        cam.width_px,
-        cam.height_px,
-        r.render(&cam, &protocol.rendering),
-    )
-    .expect("render size")
 }
 
 fn run_robustness(args: RobustnessArgs) -> Result<()> {
@@ -180,9 +157,9 @@ fn run_robustness(args: RobustnessArgs) -> Result<()> {
         image::Rgb([255, 255, 255]),
     );
     for (row, (_, clean, own)) in result.maps.iter().enumerate() {
-        let mut tiles = vec![render(&mesh, &plan, &protocol, clean)];
+        let mut tiles = vec![render_map(&mesh, &plan, &protocol, clean, 0)];
         for (c, values) in result.corrupted.iter().zip(own) {
-            tiles.push(render(&c.mesh, &plan, &protocol, values));
+            tiles.push(render_map(&c.mesh, &plan, &protocol, values, 0));
         }
         for (col, tile) in tiles.iter().enumerate() {
             image::imageops::overlay(

@@ -188,15 +188,7 @@ pub fn run(args: ProjectArgs) -> Result<()> {
         rows.extend(read_fixations_csv(f).map_err(anyhow::Error::msg)?);
         inputs.push(InputFile::hash(f)?);
     }
-    let mesh_stem = stim
-        .mesh_path
-        .file_name()
-        .unwrap_or_default()
-        .to_string_lossy()
-        .split('.')
-        .next()
-        .unwrap_or("")
-        .to_string();
+    let mesh_stem = stim.mesh_stem();
     let name = choose_stimulus(&rows, args.stimulus_name.as_deref(), &mesh_stem)?;
     let others = rows.iter().filter(|r| r.stimulus != name).count();
     let mut chosen: Vec<&FixationRow> = rows.iter().filter(|r| r.stimulus == name).collect();

@@ -7,12 +7,13 @@ use anyhow::{Context, Result};
 use base64::Engine;
 use image::{Rgb, RgbImage};
 
-use meshgaze::mesh::ColorRamp;
+use meshgaze::mesh::{ColorRamp, Mesh};
 use meshgaze::projection::ProjectionFate;
 use meshgaze::scoring::MeshScore;
-use meshgaze::stimulus::camera::Phase;
+use meshgaze::stimulus::camera::{CameraPlan, Phase};
 use meshgaze::stimulus::load::LoadedStimulus;
 use meshgaze::stimulus::raster::Rasterizer;
+use meshgaze::stimulus::Protocol;
 
 use super::truth::TruthResult;
 
@@ -116,8 +117,15 @@ fn cross(img: &mut RgbImage, cx: f64, cy: f64, r: f64, color: [u8; 3]) {
     }
 }
 
-/// Renders the mesh painted with a map (min–max normalized) under the camera of a hold.
-fn render_map(stim: &LoadedStimulus, values: &[f64], viewpoint: usize) -> RgbImage {
+/// Renders `mesh` painted with a map (min–max normalized, blue to red) under the camera of
+/// hold `viewpoint` of `plan`.
+pub fn render_map(
+    mesh: &Mesh,
+    plan: &CameraPlan,
+    protocol: &Protocol,
+    values: &[f64],
+    viewpoint: usize,
+) -> RgbImage {
     let (lo, hi) = values
         .iter()
         .filter(|v| v.is_finite())
@@ -129,13 +137,11 @@ fn render_map(stim: &LoadedStimulus, values: &[f64], viewpoint: usize) -> RgbIma
         .iter()
         .map(|&v| ramp.rgb(if hi > lo { (v - lo) / (hi - lo) } else { 0.0 }))
         .collect();
-    let mut r = Rasterizer::new(&stim.mesh);
+    let mut r = Rasterizer::new(mesh);
     r.set_vertex_colors(Some(colors));
-    let t = &stim.protocol.timing;
-    let cam = stim
-        .plan
-        .at(viewpoint as f64 * (t.hold_s + t.move_s) + 0.5 * t.hold_s);
-    let rgb = r.render(&cam, &stim.protocol.rendering);
+    let t = &protocol.timing;
+    let cam = plan.at(viewpoint as f64 * (t.hold_s + t.move_s) + 0.5 * t.hold_s);
+    let rgb = r.render(&cam, &protocol.rendering);
     RgbImage::from_raw(cam.width_px, cam.height_px, rgb).expect("render size")
 }
 
@@ -337,7 +343,10 @@ For real data, replace step 2 with your lab's SMI exports (<code>meshgaze ingest
     html += "<div class=\"maps\">";
     for view in [0, back] {
         for (name, values) in &columns {
-            let img = thumbnail(&render_map(stim, values, view), 420);
+            let img = thumbnail(
+                &render_map(&stim.mesh, &stim.plan, &stim.protocol, values, view),
+                420,
+            );
             let _ = write!(
                 html,
                 "<figure><img alt=\"{0}\" src=\"{1}\"><figcaption>{0}, viewpoint {2}</figcaption></figure>",

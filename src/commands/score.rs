@@ -104,7 +104,8 @@ struct Summary<'a> {
     mean: Vec<MethodSummary>,
 }
 
-fn blur_grid(max: f64, step: f64) -> Result<Vec<f64>> {
+/// σ_b from 0 to `max` in steps of `step` (rounded to 1e-9 so 0.07 prints as 0.07).
+pub fn blur_grid(max: f64, step: f64) -> Result<Vec<f64>> {
     if !(step > 0.0 && max >= 0.0 && max / step <= 10_000.0) {
         bail!("--blur-step must be positive and --blur-max / --blur-step at most 10000");
     }

@@ -156,18 +156,10 @@ pub fn run(args: SimulateArgs) -> Result<()> {
             "extremity (distance from the centroid)".to_string(),
         ),
     };
-    let stimulus_name = args.stimulus_name.clone().unwrap_or_else(|| {
-        let stem = stim
-            .mesh_path
-            .file_name()
-            .unwrap_or_default()
-            .to_string_lossy()
-            .split('.')
-            .next()
-            .unwrap_or("stimulus")
-            .to_string();
-        format!("{stem}.mp4")
-    });
+    let stimulus_name = args
+        .stimulus_name
+        .clone()
+        .unwrap_or_else(|| format!("{}.mp4", stim.mesh_stem()));
     let params = ObserverParams {
         subjects: args.subjects,
         seed: args.seed,

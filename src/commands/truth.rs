@@ -100,16 +100,6 @@ fn projected_file(p: &Path) -> PathBuf {
     }
 }
 
-pub fn blur_grid(max: f64, step: f64) -> Result<Vec<f64>> {
-    if !(step > 0.0 && max >= 0.0 && max / step <= 1000.0) {
-        bail!("blur grid: need step > 0, max >= 0 and at most 1000 steps");
-    }
-    let n = (max / step + 1e-9).floor() as usize;
-    Ok((0..=n)
-        .map(|i| (i as f64 * step * 1e9).round() / 1e9)
-        .collect())
-}
-
 pub fn run(args: TruthArgs) -> Result<()> {
     let bars = Bars::new(args.quiet);
     let stim = load_stimulus(&args.stimulus, args.mesh.as_deref()).map_err(anyhow::Error::msg)?;
@@ -273,7 +263,7 @@ pub fn build_truth(
     }
     let truth = GroundTruth::Fixations(fixation_truth.clone());
     let params = ScoreParams {
-        blur_sigmas: blur_grid(args.blur_max, args.blur_step)?,
+        blur_sigmas: super::score::blur_grid(args.blur_max, args.blur_step)?,
         kernel: args.kernel,
         borji_splits: 10,
         ..ScoreParams::default()

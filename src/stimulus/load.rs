@@ -32,6 +32,21 @@ pub struct LoadedStimulus {
     pub video_height: u32,
 }
 
+impl LoadedStimulus {
+    /// The mesh file's name up to its first dot (`bun_zipper_res2` for
+    /// `bun_zipper_res2.ply.gz`): how recordings usually name the stimulus.
+    pub fn mesh_stem(&self) -> String {
+        self.mesh_path
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .split('.')
+            .next()
+            .unwrap_or("")
+            .to_string()
+    }
+}
+
 fn field<'a>(v: &'a Value, path: &[&str], file: &Path) -> Result<&'a Value, String> {
     let mut cur = v;
     for p in path {
