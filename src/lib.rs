@@ -7,6 +7,7 @@
 
 pub mod corruption;
 pub mod descriptors;
+pub mod features;
 pub mod file_bytes;
 pub mod gaze;
 pub mod geometry;

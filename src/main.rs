@@ -25,6 +25,7 @@ enum Command {
     Project(commands::project::ProjectArgs),
     Truth(commands::truth::TruthArgs),
     Experiment(commands::experiment::ExperimentArgs),
+    Features(commands::features::FeaturesArgs),
     Demo(commands::demo::DemoArgs),
     Bench(commands::bench::BenchArgs),
 }
@@ -40,6 +41,7 @@ fn main() -> std::process::ExitCode {
         Command::Project(args) => commands::project::run(args),
         Command::Truth(args) => commands::truth::run(args),
         Command::Experiment(args) => commands::experiment::run(args),
+        Command::Features(args) => commands::features::run(args),
         Command::Demo(args) => commands::demo::run(args),
         Command::Bench(args) => commands::bench::run(args),
     };

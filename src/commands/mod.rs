@@ -1,6 +1,7 @@
 pub mod bench;
 pub mod demo;
 pub mod experiment;
+pub mod features;
 pub mod ingest;
 pub mod progress_bar;
 pub mod project;

@@ -1,0 +1,9 @@
+//! Feature points from saliency (paper §5.5, Fig. 9) and their evaluation against human
+//! marks (Dutagaci et al. 2012), on geodesic distances.
+pub mod feature_points;
+pub mod geodesic;
+pub mod interest_point_benchmark;
+
+pub use feature_points::{feature_points, local_maxima, FeaturePoint};
+pub use geodesic::GeodesicGraph;
+pub use interest_point_benchmark::{evaluate, voted_ground_truth, Evaluation, TruthPoint};
