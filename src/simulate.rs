@@ -605,9 +605,20 @@ pub fn write_targets_csv<W: std::io::Write>(
 }
 
 pub fn read_targets_csv(path: &std::path::Path) -> Result<Vec<TrueFixation>, String> {
-    let mut r = csv::Reader::from_path(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    parse_targets_csv(&bytes, &path.display().to_string())
+}
+
+/// targets.csv from bytes; errors name the line.
+pub fn parse_targets_csv(bytes: &[u8], name: &str) -> Result<Vec<TrueFixation>, String> {
+    let mut r = csv::Reader::from_reader(bytes);
     r.deserialize()
-        .map(|x| x.map_err(|e| format!("{}: {e}", path.display())))
+        .map(|x| {
+            x.map_err(|e| {
+                let line = e.position().map_or(0, |p| p.line());
+                format!("{name}:{line}: {e}")
+            })
+        })
         .collect()
 }
 

@@ -111,14 +111,14 @@ pub fn run(args: DemoArgs) -> Result<()> {
     );
 
     // 2. Virtual observers.
-    say("2/7 simulating 8 virtual observers (SMI RED250 exports)");
+    say(&format!(
+        "2/7 simulating {} virtual observers (SMI RED250 exports)",
+        args.subjects
+    ));
     let t = Instant::now();
     let rec_dir = out.join("recordings");
-    let q = if args.quiet {
-        vec!["--quiet".to_string()]
-    } else {
-        vec![]
-    };
+    // The fast middle steps run quietly; the demo reports their results in one line each.
+    let q = vec!["--quiet".to_string()];
     let mut argv = vec![
         "--stimulus".into(),
         s(&stim_dir),
@@ -175,6 +175,25 @@ pub fn run(args: DemoArgs) -> Result<()> {
     argv.extend(q.clone());
     super::project::run(args_of(&argv)?)?;
     step("project", t, "projection/projected.csv, project.json");
+    let pj: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(proj_dir.join("project.json"))?)?;
+    let totals = pj["totals"]
+        .as_object()
+        .map(|m| {
+            m.iter()
+                .filter(|(_, v)| v.as_u64() != Some(0))
+                .map(|(k, v)| format!("{v} {k}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        })
+        .unwrap_or_default();
+    say(&format!(
+        "    fates: {totals}; self-check {}/{}; round trip {}/{} within 1° of the true target",
+        pj["self_check"]["agreed"],
+        pj["self_check"]["checked"],
+        pj["round_trip"]["within_1deg"],
+        pj["round_trip"]["matched"]
+    ));
 
     // 5. Ground truth.
     say("5/7 building the ground truth and the split-half human ceiling");
@@ -267,10 +286,10 @@ pub fn run(args: DemoArgs) -> Result<()> {
             let gini = ginis
                 .iter()
                 .find(|g| g.0 == m.method)
-                .map_or(f64::NAN, |g| g.1);
+                .map_or(String::new(), |g| format!("; Gini {:.3}", g.1));
             eprintln!(
-                "  {:<7} AUC-Judd {:.3} unblurred, {:.3} peak at σ_b {:.2}; Gini {:.3}",
-                m.method, m.auc_judd_unblurred, m.auc_judd_peak, m.auc_judd_peak_blur, gini
+                "  {:<7} AUC-Judd {:.3} unblurred, {:.3} peak at σ_b {:.2}{gini}",
+                m.method, m.auc_judd_unblurred, m.auc_judd_peak, m.auc_judd_peak_blur
             );
         }
         eprintln!(

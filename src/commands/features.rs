@@ -6,6 +6,7 @@ use clap::Args;
 use plotters::style::RGBColor;
 use serde::Serialize;
 
+use meshgaze::features::marks::parse_marks;
 use meshgaze::features::{
     evaluate, feature_points, voted_ground_truth, Evaluation, GeodesicGraph, TruthPoint,
 };
@@ -101,34 +102,7 @@ struct Sidecar<'a> {
 pub fn read_marks(path: &Path, n_vertices: usize) -> Result<Vec<usize>> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let mut out = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        let t = line.trim().trim_start_matches('\u{feff}');
-        if t.is_empty() || t.starts_with('#') {
-            continue;
-        }
-        let field = t.split([',', ' ', '\t', ';']).next().unwrap_or("");
-        if out.is_empty() && field.eq_ignore_ascii_case("vertex") {
-            continue;
-        }
-        let col = line.find(field).map_or(1, |c| c + 1);
-        let v: usize = field.parse().map_err(|_| {
-            anyhow::anyhow!(
-                "{}:{}:{col}: expected a vertex index, found `{field}`",
-                path.display(),
-                i + 1
-            )
-        })?;
-        if v >= n_vertices {
-            bail!(
-                "{}:{}:{col}: vertex {v} is out of range: the mesh has {n_vertices} vertices",
-                path.display(),
-                i + 1
-            );
-        }
-        out.push(v);
-    }
-    Ok(out)
+    parse_marks(&text, &path.display().to_string(), n_vertices).map_err(anyhow::Error::msg)
 }
 
 pub fn run(args: FeaturesArgs) -> Result<()> {

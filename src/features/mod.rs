@@ -3,6 +3,7 @@
 pub mod feature_points;
 pub mod geodesic;
 pub mod interest_point_benchmark;
+pub mod marks;
 
 pub use feature_points::{feature_points, local_maxima, FeaturePoint};
 pub use geodesic::GeodesicGraph;

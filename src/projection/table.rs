@@ -105,7 +105,12 @@ pub fn write_projected_csv<W: Write>(out: W, rows: &[ProjectedRow]) -> Result<()
 pub fn read_projected_csv(path: &Path) -> Result<Vec<ProjectedRow>, String> {
     let name = path.display().to_string();
     let bytes = crate::file_bytes::read_maybe_gzipped(path).map_err(|e| format!("{name}: {e}"))?;
-    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(&bytes);
+    parse_projected_csv(&bytes, &name)
+}
+
+/// [`read_projected_csv`] on bytes already in memory; `name` labels the errors.
+pub fn parse_projected_csv(bytes: &[u8], name: &str) -> Result<Vec<ProjectedRow>, String> {
+    let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     let mut r = csv::Reader::from_reader(bytes);
     let headers = r.headers().map_err(|e| format!("{name}:1: {e}"))?.clone();
     let mut rows = Vec::new();
