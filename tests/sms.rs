@@ -353,3 +353,28 @@ fn same_seed_gives_byte_identical_csv_on_any_thread_count() {
     assert!(values.iter().all(|v| (0.0..=1.0).contains(v)));
     assert!(values.contains(&1.0) && values.contains(&0.0));
 }
+
+/// The baselines sum kd-tree neighbourhoods in traversal order: still the same bytes on any
+/// thread count.
+#[test]
+fn baselines_are_byte_identical_on_any_thread_count() {
+    let dir = std::env::temp_dir().join(format!("meshgaze-det-ms-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let mesh = common::repo_root().join("stimuli/meshes/bun_zipper_res2.ply");
+    for method in ["ms", "mc", "si"] {
+        let run = |threads: &str| {
+            let out = dir.join(format!("{method}_{threads}"));
+            let status = Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+                .args(["saliency", "--quiet", "--method", method, "-o"])
+                .arg(&out)
+                .arg(&mesh)
+                .env("RAYON_NUM_THREADS", threads)
+                .status()
+                .unwrap();
+            assert!(status.success());
+            common::read_file(&out.with_extension("csv"))
+        };
+        assert!(run("1") == run("2"), "{method}: 1 and 2 threads differ");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
