@@ -75,6 +75,15 @@ fn load_case(name: &str, data: &Path) -> Result<Mesh> {
     })
 }
 
+/// "28x", or one decimal below 10x so 1.4x is not printed as 1x.
+fn ratio(r: f64) -> String {
+    if r < 10.0 {
+        format!("{r:.1}x")
+    } else {
+        format!("{r:.0}x")
+    }
+}
+
 fn peak_rss_mb() -> f64 {
     std::fs::read_to_string("/proc/self/status")
         .ok()
@@ -198,15 +207,15 @@ pub fn run(args: BenchArgs) -> Result<()> {
     println!("|---|---:|---:|---:|---:|---:|");
     for r in &rows {
         let mut line = format!(
-            "| {} | {} | {:.2} ({}, {:.0}x) |",
+            "| {} | {} | {:.2} ({}, {}) |",
             r.name,
             r.vertices,
             r.total_s,
             r.paper_total_s,
-            r.paper_total_s / r.total_s
+            ratio(r.paper_total_s / r.total_s)
         );
         for (_, secs, paper) in &r.baselines {
-            line += &format!(" {secs:.3} ({paper}, {:.0}x) |", paper / secs);
+            line += &format!(" {secs:.3} ({paper}, {}) |", ratio(paper / secs));
         }
         println!("{line}");
     }
