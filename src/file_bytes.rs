@@ -30,3 +30,13 @@ impl std::fmt::Display for ReadError {
         }
     }
 }
+
+/// Creates an output folder and its parents, naming it in the error.
+pub fn create_output_dir(dir: &Path) -> Result<(), std::io::Error> {
+    std::fs::create_dir_all(dir).map_err(|e| {
+        std::io::Error::new(
+            e.kind(),
+            format!("cannot create output folder {}: {e}", dir.display()),
+        )
+    })
+}

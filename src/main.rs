@@ -1,5 +1,5 @@
 //! The `meshgaze` command line: a thin layer over the library.
-mod commands;
+mod cli;
 
 use clap::{Parser, Subcommand};
 
@@ -17,33 +17,35 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    Saliency(commands::saliency::SaliencyArgs),
-    Score(commands::score::ScoreArgs),
-    Stimulus(commands::stimulus::StimulusArgs),
-    Ingest(commands::ingest::IngestArgs),
-    Simulate(commands::simulate::SimulateArgs),
-    Project(commands::project::ProjectArgs),
-    Truth(commands::truth::TruthArgs),
-    Experiment(commands::experiment::ExperimentArgs),
-    Features(commands::features::FeaturesArgs),
-    Demo(commands::demo::DemoArgs),
-    Bench(commands::bench::BenchArgs),
+    Saliency(cli::saliency::SaliencyArgs),
+    Score(cli::score::ScoreArgs),
+    Stimulus(cli::stimulus::StimulusArgs),
+    Ingest(cli::ingest::IngestArgs),
+    Simulate(cli::simulate::SimulateArgs),
+    Project(cli::project::ProjectArgs),
+    Truth(cli::truth::TruthArgs),
+    Experiment(cli::experiment::ExperimentArgs),
+    Features(cli::features::FeaturesArgs),
+    Demo(cli::demo::DemoArgs),
+    Bench(cli::bench::BenchArgs),
+    Protocol(cli::protocol::ProtocolArgs),
 }
 
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Command::Saliency(args) => commands::saliency::run(args),
-        Command::Score(args) => commands::score::run(args),
-        Command::Stimulus(args) => commands::stimulus::run(args),
-        Command::Ingest(args) => commands::ingest::run(args),
-        Command::Simulate(args) => commands::simulate::run(args),
-        Command::Project(args) => commands::project::run(args),
-        Command::Truth(args) => commands::truth::run(args),
-        Command::Experiment(args) => commands::experiment::run(args),
-        Command::Features(args) => commands::features::run(args),
-        Command::Demo(args) => commands::demo::run(args),
-        Command::Bench(args) => commands::bench::run(args),
+        Command::Saliency(args) => cli::saliency::run(args),
+        Command::Score(args) => cli::score::run(args),
+        Command::Stimulus(args) => cli::stimulus::run(args),
+        Command::Ingest(args) => cli::ingest::run(args),
+        Command::Simulate(args) => cli::simulate::run(args),
+        Command::Project(args) => cli::project::run(args),
+        Command::Truth(args) => cli::truth::run(args),
+        Command::Experiment(args) => cli::experiment::run(args),
+        Command::Features(args) => cli::features::run(args),
+        Command::Demo(args) => cli::demo::run(args),
+        Command::Bench(args) => cli::bench::run(args),
+        Command::Protocol(args) => cli::protocol::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

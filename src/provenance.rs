@@ -14,6 +14,15 @@ pub struct InputFile {
 }
 
 impl InputFile {
+    /// Provenance of an input held in memory (a built-in file), named `name`.
+    pub fn of_bytes(name: &str, bytes: &[u8]) -> InputFile {
+        InputFile {
+            path: name.to_string(),
+            sha256: crate::provenance::sha256_hex(bytes),
+            bytes: bytes.len() as u64,
+        }
+    }
+
     pub fn hash(path: &Path) -> std::io::Result<InputFile> {
         let mut file = std::fs::File::open(path)?;
         let mut hasher = Sha256::new();

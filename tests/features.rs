@@ -3,8 +3,10 @@
 mod common;
 
 use glam::DVec3;
-use meshgaze::features::{evaluate, feature_points, voted_ground_truth, GeodesicGraph};
-use meshgaze::mean_curvature::test_meshes::icosphere;
+use meshgaze::experiments::features::{
+    evaluate, feature_points, voted_ground_truth, GeodesicGraph,
+};
+use meshgaze::mesh::mean_curvature::test_meshes::icosphere;
 use meshgaze::mesh::Mesh;
 
 fn great_circle(p: DVec3, q: DVec3) -> f64 {
@@ -113,7 +115,7 @@ fn feature_points_are_the_separated_peaks_in_saliency_order() {
         0.08,
     );
     let g = GeodesicGraph::new(&sphere, 3);
-    let maxima = meshgaze::features::local_maxima(&sphere, &values);
+    let maxima = meshgaze::experiments::features::local_maxima(&sphere, &values);
     for v in [a, b, c, near_a, weak1, weak2] {
         assert!(maxima.contains(&v), "{v} is a local maximum");
     }

@@ -11,7 +11,6 @@ use meshgaze::gaze::fixations::{
 };
 use meshgaze::gaze::parse_smi;
 use meshgaze::gaze::writers::{write_events_c1, write_samples_a};
-use meshgaze::ground_truth::fixation_truth_from_rows;
 use meshgaze::projection::self_check::self_check;
 use meshgaze::projection::table::ProjectedRow;
 use meshgaze::projection::{
@@ -25,6 +24,7 @@ use meshgaze::stimulus::camera::CameraPlan;
 use meshgaze::stimulus::load::load_stimulus;
 use meshgaze::stimulus::protocol::DuringMove;
 use meshgaze::stimulus::{render_stimulus, FrameImages, Protocol, StimulusOptions};
+use meshgaze::truth::fixation_truth_from_rows;
 
 fn hu2020() -> (Protocol, String) {
     Protocol::load(&common::repo_root().join("protocols/hu2020.toml")).expect("protocol")
@@ -223,7 +223,7 @@ fn render_short(dir: &Path) -> std::path::PathBuf {
         &mesh,
         &protocol,
         &text,
-        &protocol_path,
+        &protocol_path.display().to_string(),
         &out,
         &StimulusOptions {
             frames: FrameImages::None,

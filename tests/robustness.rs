@@ -2,11 +2,11 @@
 //! back to the original vertices faithfully.
 mod common;
 
-use meshgaze::corruption::{
+use meshgaze::experiments::corruption::{
     add_normal_noise, boundary_loops, cut_holes, transfer_by_nearest_surface_point,
 };
-use meshgaze::mean_curvature::test_meshes::icosphere;
-use meshgaze::simplification::simplify_to_vertex_count;
+use meshgaze::mesh::mean_curvature::test_meshes::icosphere;
+use meshgaze::mesh::simplification::simplify_to_vertex_count;
 
 #[test]
 fn holes_are_separate_boundary_loops_in_a_closed_mesh() {

@@ -3,9 +3,9 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use meshgaze::ground_truth::{load_ground_truth, GroundTruth, TruthError};
 use meshgaze::progress::Silent;
 use meshgaze::scoring::{score_mesh, ScoreParams, CHANCE, HUMAN};
+use meshgaze::truth::{load_ground_truth, GroundTruth, TruthError};
 use proptest::prelude::*;
 
 fn write(name: &str, text: &str) -> PathBuf {

@@ -5,16 +5,18 @@ use std::process::Command;
 use std::sync::OnceLock;
 
 use glam::DVec3;
-use meshgaze::corruption::{add_normal_noise, transfer_by_nearest_vertex};
-use meshgaze::descriptors::Descriptors;
-use meshgaze::descriptors::{
-    compute_descriptors, DescriptorParams, ExactField, GridField, GridParams,
-};
-use meshgaze::geometry::{pearson, BoundingBox, Normalization};
+use meshgaze::experiments::corruption::{add_normal_noise, transfer_by_nearest_vertex};
+use meshgaze::mesh::geometry::{pearson, BoundingBox, Normalization};
 use meshgaze::mesh::Mesh;
 use meshgaze::progress::Silent;
-use meshgaze::saliency::descriptor_metric::{DenseSymmetric, DescriptorMetric, SymmetricOperator};
-use meshgaze::saliency::truncated_power::{
+use meshgaze::saliency::sms::descriptor_metric::{
+    DenseSymmetric, DescriptorMetric, SymmetricOperator,
+};
+use meshgaze::saliency::sms::descriptors::Descriptors;
+use meshgaze::saliency::sms::descriptors::{
+    compute_descriptors, DescriptorParams, ExactField, GridField, GridParams,
+};
+use meshgaze::saliency::sms::truncated_power::{
     principal_eigenpair, top_k_indices, truncated_power, PowerParams,
 };
 use meshgaze::saliency::{sparse_metric_saliency, SmsExtras, SmsParams};
@@ -45,7 +47,7 @@ fn crop(mesh: &Mesh, p: DVec3, reach: f64) -> Mesh {
         .copied()
         .filter(|t| {
             let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
-            (p - meshgaze::geometry::closest_point_on_triangle(p, a, b, c)).length() <= reach
+            (p - meshgaze::mesh::geometry::closest_point_on_triangle(p, a, b, c)).length() <= reach
         })
         .collect();
     Mesh {

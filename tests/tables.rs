@@ -3,7 +3,7 @@
 //! never a panic, and what meshgaze writes reads back exactly.
 use proptest::prelude::*;
 
-use meshgaze::features::marks::parse_marks;
+use meshgaze::experiments::features::marks::parse_marks;
 use meshgaze::gaze::fixation_table::{parse_fixations_csv, write_fixations_csv, FixationRow};
 use meshgaze::projection::table::{parse_projected_csv, write_projected_csv, ProjectedRow};
 use meshgaze::projection::ProjectionFate;

@@ -3,7 +3,7 @@
 //! human-mark files. Any bytes: rows or an error naming the place, never a panic; rows that
 //! parse write back and re-read identically.
 use libfuzzer_sys::fuzz_target;
-use meshgaze::features::marks::parse_marks;
+use meshgaze::experiments::features::marks::parse_marks;
 use meshgaze::gaze::fixation_table::{parse_fixations_csv, write_fixations_csv};
 use meshgaze::projection::table::{parse_projected_csv, write_projected_csv};
 use meshgaze::simulate::parse_targets_csv;

@@ -77,7 +77,7 @@ pub fn read_smi(path: &Path, format: Option<SmiFormat>) -> Result<Recording, Gaz
     let bytes = read_maybe_gzipped(path).map_err(|e| match e {
         ReadError::Io(source) => GazeError::Io {
             path: p.clone(),
-            source,
+            error: source,
         },
         ReadError::CorruptGzip(e) => GazeError::File {
             path: p.clone(),

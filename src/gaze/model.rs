@@ -194,11 +194,8 @@ pub struct Recording {
 
 #[derive(Debug, thiserror::Error)]
 pub enum GazeError {
-    #[error("{path}: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
+    #[error("{path}: {error}")]
+    Io { path: String, error: std::io::Error },
     #[error("{path}:{line}:{column}: {message}")]
     At {
         path: String,

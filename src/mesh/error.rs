@@ -4,10 +4,10 @@ use std::path::PathBuf;
 /// line and column, binary PLY the byte offset, so a user can open the file at the spot.
 #[derive(Debug, thiserror::Error)]
 pub enum MeshError {
-    #[error("{path}: {source}")]
+    #[error("{path}: {error}")]
     Io {
         path: PathBuf,
-        source: std::io::Error,
+        error: std::io::Error,
     },
     #[error("{path}:{line}:{column}: {message}")]
     Text {

@@ -4,10 +4,14 @@
 //! (saliency, ground truth) is indexed by the input file's vertex numbering.
 
 mod error;
+pub mod geometry;
+pub mod mean_curvature;
 mod obj;
 mod off;
 mod ply;
 mod read;
+pub mod sampling;
+pub mod simplification;
 mod subdivide;
 mod write_ply;
 

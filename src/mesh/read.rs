@@ -61,7 +61,7 @@ pub fn load_mesh(path: &Path) -> Result<(Mesh, LoadReport), MeshError> {
     let bytes = read_maybe_gzipped(path).map_err(|e| match e {
         ReadError::Io(source) => MeshError::Io {
             path: path.to_path_buf(),
-            source,
+            error: source,
         },
         ReadError::CorruptGzip(e) => MeshError::invalid(path, format!("gzip data is corrupt: {e}")),
     })?;

@@ -371,6 +371,43 @@ pub fn count_fates<'a>(
     counts
 }
 
+/// Fates of projected rows counted by fate name (every fate present, zero or not); rows without
+/// a readable fate are not counted.
+pub fn fate_counts_by_name<'a>(
+    rows: impl IntoIterator<Item = &'a table::ProjectedRow>,
+) -> std::collections::BTreeMap<&'static str, usize> {
+    let fates: Vec<ProjectionFate> = rows.into_iter().filter_map(|r| r.fate()).collect();
+    count_fates(fates.iter())
+        .into_iter()
+        .map(|(f, c)| (f.name(), c))
+        .collect()
+}
+
+/// Fates per subject as a plain-text table (one line per subject, then the totals).
+pub fn fate_table_text(
+    fates: &std::collections::BTreeMap<String, std::collections::BTreeMap<&'static str, usize>>,
+    totals: &std::collections::BTreeMap<&'static str, usize>,
+) -> String {
+    let names: Vec<&str> = ProjectionFate::ALL.iter().map(|f| f.name()).collect();
+    let mut text = format!("{:<10}", "subject");
+    for n in &names {
+        text += &format!(" {n:>13}");
+    }
+    text.push('\n');
+    let mut row = |label: &str, c: &std::collections::BTreeMap<&'static str, usize>| {
+        text += &format!("{label:<10}");
+        for n in &names {
+            text += &format!(" {:>13}", c.get(n).copied().unwrap_or(0));
+        }
+        text.push('\n');
+    };
+    for (s, c) in fates {
+        row(s, c);
+    }
+    row("total", totals);
+    text
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

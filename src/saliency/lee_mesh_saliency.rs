@@ -12,8 +12,8 @@ use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
 use serde::Serialize;
 
-use super::gaussian_interpolation::min_max_normalize;
-use crate::mean_curvature::{mean_curvature, CurvatureReport, VertexAdjacency};
+use super::sms::gaussian_interpolation::min_max_normalize;
+use crate::mesh::mean_curvature::{mean_curvature, CurvatureReport, VertexAdjacency};
 use crate::mesh::Mesh;
 
 #[derive(Debug, Clone, Serialize)]
@@ -172,7 +172,7 @@ mod tests {
 
     /// A flat square plate of n × n vertices with a small Gaussian bump.
     fn plate_with_bump(n: usize, bump: (f64, f64), width: f64, height: f64) -> Mesh {
-        crate::mean_curvature::test_meshes::height_field(n, 0.0, |x, y| {
+        crate::mesh::mean_curvature::test_meshes::height_field(n, 0.0, |x, y| {
             let r2 = (x - bump.0).powi(2) + (y - bump.1).powi(2);
             height * (-r2 / (2.0 * width * width)).exp()
         })

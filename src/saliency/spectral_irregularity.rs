@@ -18,12 +18,12 @@
 use faer::Mat;
 use serde::Serialize;
 
-use super::gaussian_interpolation::min_max_normalize;
-use crate::corruption::transfer_by_nearest_vertex;
-use crate::geometry::{BoundingBox, Normalization};
+use super::sms::gaussian_interpolation::min_max_normalize;
+use crate::experiments::corruption::transfer_by_nearest_vertex;
+use crate::mesh::geometry::{BoundingBox, Normalization};
+use crate::mesh::simplification::simplify_to_vertex_count;
 use crate::mesh::Mesh;
-use crate::metrics::surface_blur::{vertex_areas, SurfaceBlur};
-use crate::simplification::simplify_to_vertex_count;
+use crate::scoring::surface_blur::{vertex_areas, SurfaceBlur};
 
 #[derive(Debug, Clone, Serialize)]
 pub struct SpectralParams {

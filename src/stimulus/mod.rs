@@ -172,7 +172,7 @@ pub fn render_stimulus(
     mesh: &Mesh,
     protocol: &Protocol,
     protocol_text: &str,
-    protocol_file: &Path,
+    protocol_name: &str,
     out_dir: &Path,
     options: &StimulusOptions,
     progress: &dyn Progress,
@@ -283,8 +283,7 @@ pub fn render_stimulus(
         InputFile::hash(&timeline_path).map_err(|e| format!("{}: {e}", timeline_path.display()))?;
     let mesh_input =
         InputFile::hash(mesh_file).map_err(|e| format!("{}: {e}", mesh_file.display()))?;
-    let protocol_input =
-        InputFile::hash(protocol_file).map_err(|e| format!("{}: {e}", protocol_file.display()))?;
+    let protocol_input = InputFile::of_bytes(protocol_name, protocol_text.as_bytes());
     let manifest = Manifest {
         provenance: Provenance::new(vec![mesh_input.clone(), protocol_input]),
         protocol: protocol.clone(),

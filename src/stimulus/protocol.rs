@@ -6,11 +6,8 @@ use serde::{Deserialize, Serialize};
 
 #[derive(Debug, thiserror::Error)]
 pub enum ProtocolError {
-    #[error("{path}: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
+    #[error("{path}: {error}")]
+    Io { path: String, error: std::io::Error },
     #[error("{path}: {message}")]
     Parse { path: String, message: String },
     #[error("{path}: invalid protocol: {message}")]
@@ -226,7 +223,36 @@ impl Display {
     }
 }
 
+/// The paper's protocol (protocols/hu2020.toml), compiled into the binary so no default
+/// depends on the working directory.
+pub const BUILTIN_TOML: &str = include_str!("../../protocols/hu2020.toml");
+/// How the built-in protocol is named in provenance and messages.
+pub const BUILTIN_NAME: &str = "built-in:hu2020.toml";
+
 impl Protocol {
+    /// The built-in protocol and its text.
+    pub fn builtin() -> (Protocol, String) {
+        let p = Protocol::from_toml(BUILTIN_TOML, BUILTIN_NAME)
+            .expect("the built-in protocol is checked by the test suite");
+        (p, BUILTIN_TOML.to_string())
+    }
+
+    /// The protocol at `path`, or the built-in one; with its text and its name for provenance.
+    pub fn load_or_builtin(
+        path: Option<&Path>,
+    ) -> Result<(Protocol, String, String), ProtocolError> {
+        match path {
+            Some(p) => {
+                let (protocol, text) = Protocol::load(p)?;
+                Ok((protocol, text, p.display().to_string()))
+            }
+            None => {
+                let (protocol, text) = Protocol::builtin();
+                Ok((protocol, text, BUILTIN_NAME.to_string()))
+            }
+        }
+    }
+
     pub fn from_toml(text: &str, path: &str) -> Result<Protocol, ProtocolError> {
         let p: Protocol = toml::from_str(text).map_err(|e| ProtocolError::Parse {
             path: path.to_string(),
@@ -242,7 +268,7 @@ impl Protocol {
     pub fn load(path: &Path) -> Result<(Protocol, String), ProtocolError> {
         let text = std::fs::read_to_string(path).map_err(|source| ProtocolError::Io {
             path: path.display().to_string(),
-            source,
+            error: source,
         })?;
         Ok((
             Protocol::from_toml(&text, &path.display().to_string())?,

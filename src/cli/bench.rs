@@ -1,0 +1,347 @@
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use serde::{Deserialize, Serialize};
+
+use meshgaze::mesh::{load_mesh, subdivide_midpoint, Mesh};
+use meshgaze::progress::Silent;
+use meshgaze::saliency::{compute_saliency, sparse_metric_saliency, Method, SmsExtras, SmsParams};
+
+/// Time SMS at the paper's settings, as in the paper's Table 3.
+///
+/// Cases: the 35,947-vertex Stanford bunny, the 48k Cyberware horse, the 134k igea, and the
+/// 50k armadillo subdivided twice (about 800k vertices); each is compared with the paper's
+/// row nearest in size. SMS with its steps A/B/C, then MC, MS and SI. Each case runs in its own process so its peak memory is its own.
+/// Prints a Markdown table; --csv also writes it as CSV.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Folder with the shared meshes (meshes/classic/...).
+    #[arg(long, default_value = "../shared/data")]
+    pub data: PathBuf,
+    /// Repeat each case this many times and keep the fastest total.
+    #[arg(long, default_value_t = 1)]
+    pub repeat: usize,
+    /// Also write the table as CSV here.
+    #[arg(long)]
+    pub csv: Option<PathBuf>,
+    /// Run one case in this process and print its JSON (used internally).
+    #[arg(long, hide = true)]
+    pub case: Option<String>,
+    /// Skip the stimulus benchmark (a 48 s 1680x1050 video of the 50k armadillo, ~30 s).
+    #[arg(long)]
+    pub skip_stimulus: bool,
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct CaseResult {
+    name: String,
+    vertices: usize,
+    a_s: f64,
+    field_s: f64,
+    b_s: f64,
+    c_s: f64,
+    total_s: f64,
+    load_s: f64,
+    peak_rss_mb: f64,
+    paper_total_s: f64,
+    /// The paper's Table 3 row this case is compared with.
+    paper_row: String,
+    /// Other methods' totals: (name, seconds, paper seconds).
+    baselines: Vec<(String, f64, f64)>,
+}
+
+/// A bench case and the row of the paper's Table 3 it is compared with (the nearest in
+/// vertex count): (case, paper mesh, paper SMS total, MC, MS, SI seconds).
+const CASES: [(&str, &str, f64, f64, f64, f64); 4] = [
+    ("bunny-35k", "Bunny 35k", 43.5, 0.5, 12.2, 13.7),
+    ("horse-48k", "Dinosaur 56k", 45.2, 1.8, 28.2, 23.6),
+    ("igea-134k", "Armadillo 172k", 44.3, 2.3, 56.1, 36.5),
+    ("armadillo-subdivided", "Lucy 604k", 48.9, 7.3, 448.0, 67.4),
+];
+
+fn load_case(name: &str, data: &Path) -> Result<Mesh> {
+    Ok(match name {
+        "bunny-35k" => load_mesh(&data.join("meshes/classic/stanford_bunny/bun_zipper.ply"))?.0,
+        "horse-48k" => load_mesh(&data.join("meshes/classic/cyberware/horse.ply"))?.0,
+        "igea-134k" => load_mesh(&data.join("meshes/classic/cyberware/igea.ply"))?.0,
+        "armadillo-subdivided" => {
+            let m =
+                load_mesh(&data.join("meshes/classic/decimated_profactor_50k/armadillo.obj"))?.0;
+            subdivide_midpoint(&subdivide_midpoint(&m))
+        }
+        other => bail!("unknown bench case {other}"),
+    })
+}
+
+/// "28x", or one decimal below 10x so 1.4x is not printed as 1x.
+fn ratio(r: f64) -> String {
+    if r < 10.0 {
+        format!("{r:.1}x")
+    } else {
+        format!("{r:.0}x")
+    }
+}
+
+fn peak_rss_mb() -> f64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("VmHWM:"))
+                .and_then(|l| l.split_whitespace().nth(1))
+                .and_then(|kb| kb.parse::<f64>().ok())
+        })
+        .map_or(f64::NAN, |kb| kb / 1024.0)
+}
+
+fn run_case(name: &str, data: &Path, repeat: usize) -> Result<CaseResult> {
+    let t = std::time::Instant::now();
+    let mesh = load_case(name, data)?;
+    let load_s = t.elapsed().as_secs_f64();
+    let params = SmsParams::default();
+    let mut best: Option<CaseResult> = None;
+    for _ in 0..repeat.max(1) {
+        let r = sparse_metric_saliency(&mesh, &params, SmsExtras::default(), &Silent)
+            .map_err(|e| anyhow::anyhow!(e))?;
+        let tm = &r.report.timings;
+        let paper = CASES.iter().find(|c| c.0 == name).map_or(f64::NAN, |c| c.2);
+        let cr = CaseResult {
+            name: name.to_string(),
+            vertices: mesh.positions.len(),
+            a_s: tm.a_metric_s,
+            field_s: tm.a_field_s,
+            b_s: tm.b_saliency_s,
+            c_s: tm.c_interpolation_s,
+            total_s: tm.total_s,
+            load_s,
+            peak_rss_mb: 0.0,
+            paper_total_s: paper,
+            paper_row: CASES
+                .iter()
+                .find(|c| c.0 == name)
+                .map_or(String::new(), |c| c.1.to_string()),
+            baselines: Vec::new(),
+        };
+        if best.as_ref().is_none_or(|b| cr.total_s < b.total_s) {
+            best = Some(cr);
+        }
+    }
+    let mut best = best.expect("at least one run");
+    best.peak_rss_mb = peak_rss_mb();
+    if let Some(&(_, _, _, mc, ms, si)) = CASES.iter().find(|c| c.0 == name) {
+        for (method, paper) in [(Method::Mc, mc), (Method::Ms, ms), (Method::Si, si)] {
+            let mut fastest = f64::INFINITY;
+            for _ in 0..repeat.max(1) {
+                let out = compute_saliency(method, &mesh, &params, &Silent)
+                    .map_err(|e| anyhow::anyhow!(e))?;
+                fastest = fastest.min(out.seconds);
+            }
+            best.baselines
+                .push((method.name().to_string(), fastest, paper));
+        }
+    }
+    Ok(best)
+}
+
+pub fn run(args: BenchArgs) -> Result<()> {
+    if let Some(case) = &args.case {
+        let r = run_case(case, &args.data, args.repeat)?;
+        println!("{}", serde_json::to_string(&r)?);
+        return Ok(());
+    }
+    if !args.data.join("meshes/classic").is_dir() {
+        bail!(
+            "{}: no meshes/classic folder; pass --data with the shared data folder",
+            args.data.display()
+        );
+    }
+    let exe = std::env::current_exe().context("cannot find the meshgaze executable")?;
+    let threads = rayon::current_num_threads();
+    let mut rows = Vec::new();
+    for (name, ..) in CASES {
+        eprintln!("bench: {name} ...");
+        let out = Command::new(&exe)
+            .args([
+                "bench",
+                "--case",
+                name,
+                "--repeat",
+                &args.repeat.to_string(),
+                "--data",
+            ])
+            .arg(&args.data)
+            .output()
+            .context("cannot run the bench case")?;
+        if !out.status.success() {
+            bail!(
+                "bench case {name} failed: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+        let line = String::from_utf8_lossy(&out.stdout);
+        rows.push(serde_json::from_str::<CaseResult>(line.trim())?);
+    }
+    println!("SMS at the paper's settings (n = 5000, 5 scales, 256³ grid, μ = 0.2, σ = 0.02), {threads} threads:\n");
+    println!("| mesh | vertices | A metric (s) | of which field (s) | B saliency (s) | C interpolation (s) | total (s) | paper row | paper total (s) | speed-up | peak RSS (MB) |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|");
+    for r in &rows {
+        println!(
+            "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {:.1} | {:.0}x | {:.0} |",
+            r.name,
+            r.vertices,
+            r.a_s,
+            r.field_s,
+            r.b_s,
+            r.c_s,
+            r.total_s,
+            r.paper_row,
+            r.paper_total_s,
+            r.paper_total_s / r.total_s,
+            r.peak_rss_mb
+        );
+    }
+    println!("\nEvery method, total seconds (in parentheses: the paper's Table 3 row, and its seconds / ours):\n");
+    println!("| mesh | vertices | SMS | MC | MS | SI |");
+    println!("|---|---:|---:|---:|---:|---:|");
+    for r in &rows {
+        let mut line = format!(
+            "| {} | {} | {:.2} ({}, {}) |",
+            r.name,
+            r.vertices,
+            r.total_s,
+            r.paper_total_s,
+            ratio(r.paper_total_s / r.total_s)
+        );
+        for (_, secs, paper) in &r.baselines {
+            line += &format!(" {secs:.3} ({paper}, {}) |", ratio(paper / secs));
+        }
+        println!("{line}");
+    }
+    bench_smi_parse(&args.data)?;
+    if !args.skip_stimulus {
+        bench_stimulus(&args.data)?;
+    }
+    println!(
+        "\nLoading (not counted above): {}",
+        rows.iter()
+            .map(|r| format!("{} {:.2} s", r.name, r.load_s))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    if let Some(path) = &args.csv {
+        let mut w = String::new();
+        w.push_str("mesh,vertices,method,a_s,field_s,b_s,c_s,total_s,paper_row,paper_total_s,peak_rss_mb\n");
+        for r in &rows {
+            w.push_str(&format!(
+                "{},{},sms,{},{},{},{},{},{},{},{}\n",
+                r.name,
+                r.vertices,
+                r.a_s,
+                r.field_s,
+                r.b_s,
+                r.c_s,
+                r.total_s,
+                r.paper_row,
+                r.paper_total_s,
+                r.peak_rss_mb
+            ));
+            for (m, secs, paper) in &r.baselines {
+                w.push_str(&format!(
+                    "{},{},{m},,,,,{secs},{},{paper},{}\n",
+                    r.name, r.vertices, r.paper_row, r.peak_rss_mb
+                ));
+            }
+        }
+        std::fs::write(path, w).with_context(|| format!("cannot write {}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// The protocol's full 48 s stimulus of the 50k armadillo (~100k triangles), rendered and
+/// encoded, written to a temporary folder.
+fn bench_stimulus(data: &Path) -> Result<()> {
+    use meshgaze::stimulus::{render_stimulus, FrameImages, Protocol, StimulusOptions};
+    let mesh_path = data.join("meshes/classic/decimated_profactor_50k/armadillo.obj");
+    let (protocol, text) = Protocol::builtin();
+    let (mesh, _) = load_mesh(&mesh_path)?;
+    let out = std::env::temp_dir().join(format!("meshgaze-bench-stimulus-{}", std::process::id()));
+    eprintln!("bench: stimulus ...");
+    let options = StimulusOptions {
+        frames: FrameImages::None,
+        id_buffer: false,
+        verify: false,
+    };
+    let m = render_stimulus(
+        &mesh_path,
+        &mesh,
+        &protocol,
+        &text,
+        meshgaze::stimulus::protocol::BUILTIN_NAME,
+        &out,
+        &options,
+        &Silent,
+    )
+    .map_err(anyhow::Error::msg)?;
+    let _ = std::fs::remove_dir_all(&out);
+    println!(
+        "\nStimulus (protocols/hu2020.toml) of the 50k armadillo, {} triangles:\n",
+        mesh.triangles.len()
+    );
+    println!("| frames | size | rendered / reused frames | render (s) | encode (s) | total (s) | target (s) |");
+    println!("|---:|---|---|---:|---:|---:|---:|");
+    println!(
+        "| {} | {}x{} @ {} fps | {} / {} | {:.1} | {:.1} | {:.1} | 30 |",
+        m.video.frames,
+        m.video.width,
+        m.video.height,
+        m.video.fps,
+        m.timings.frames_rendered,
+        m.timings.frames_reused,
+        m.timings.render_s,
+        m.timings.encode_s,
+        m.timings.total_s
+    );
+    Ok(())
+}
+
+/// Parse speed of SMI format A: HBN's 7,343-sample export repeated to about 1.1 million
+/// samples (times shifted so they keep increasing), read from memory.
+fn bench_smi_parse(data: &Path) -> Result<()> {
+    let path = data.join("smi/hbn-sccn__NDARAA075AMK_Video1_Samples.txt");
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("cannot read {}", path.display()))?;
+    let split_at = text
+        .find("\nTime\t")
+        .map(|i| i + 1)
+        .context("no column header")?;
+    let body_start = split_at + text[split_at..].find('\n').context("no data")? + 1;
+    let (head, body) = text.split_at(body_start);
+    let rows: Vec<&str> = body.lines().filter(|l| l.contains("\tSMP\t")).collect();
+    let mut big = String::with_capacity(text.len() * 160);
+    big.push_str(head);
+    let mut t: i64 = 1_000_000;
+    for _ in 0..150 {
+        for r in &rows {
+            let (_, rest) = r.split_once('\t').context("row")?;
+            t += 16_667;
+            big.push_str(&t.to_string());
+            big.push('\t');
+            big.push_str(rest);
+            big.push('\n');
+        }
+    }
+    let start = std::time::Instant::now();
+    let rec =
+        meshgaze::gaze::parse_smi(big.as_bytes(), "bench", None).map_err(anyhow::Error::msg)?;
+    let secs = start.elapsed().as_secs_f64();
+    println!(
+        "\nSMI format A parse (HBN samples repeated, {:.0} MB in memory): {} samples in {:.2} s = {:.2} million samples/s (target 1)",
+        big.len() as f64 / 1e6,
+        rec.samples.len(),
+        secs,
+        rec.samples.len() as f64 / secs / 1e6
+    );
+    Ok(())
+}

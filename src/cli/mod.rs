@@ -1,0 +1,13 @@
+pub mod bench;
+pub mod demo;
+pub mod experiment;
+pub mod features;
+pub mod ingest;
+pub mod progress_bar;
+pub mod project;
+pub mod protocol;
+pub mod saliency;
+pub mod score;
+pub mod simulate;
+pub mod stimulus;
+pub mod truth;

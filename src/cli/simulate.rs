@@ -1,0 +1,241 @@
+use std::path::PathBuf;
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use serde::Serialize;
+
+use meshgaze::gaze::writers::{write_events_c1, write_samples_a};
+use meshgaze::progress::Progress;
+use meshgaze::provenance::{InputFile, Provenance};
+use meshgaze::saliency::{compute_saliency, Method, SmsParams};
+use meshgaze::simulate::{
+    extremity_map, simulate_observers, write_targets_csv, ObserverParams, TargetModel,
+};
+use meshgaze::stimulus::load::load_stimulus;
+use meshgaze::truth::{load_ground_truth, GroundTruth};
+
+use super::progress_bar::Bars;
+
+/// Simulate virtual observers watching a stimulus: SMI recordings with known answers.
+///
+/// Each virtual subject gets a format A sample file (IDF Converter text at 250 Hz: both
+/// eyes, blinks as SMI's (0, 0), messages at stimulus onset) and a format C1 event file (IDF
+/// Event Detector text), as a RED250 lab would export them; `meshgaze ingest` reads both.
+/// targets.csv records the true target vertex of every fixation, so the pipeline ingest →
+/// filter → project can be checked against the truth.
+///
+/// What the observers look at: --model extremity (default: protruding parts, independent of
+/// every saliency method), --model uniform, --method sms|ms|mc|si (a computed map),
+/// --saliency FILE (vertex,value CSV) or --vertices LIST. The observer model (durations,
+/// saccades, blinks, 0.4° accuracy, head distance) is described in the simulate module's
+/// documentation; every parameter is a flag and recorded in simulate.json.
+#[derive(Debug, Args)]
+pub struct SimulateArgs {
+    /// The stimulus: its manifest.json or the folder holding it.
+    #[arg(long)]
+    pub stimulus: PathBuf,
+    /// Output folder.
+    #[arg(short, long)]
+    pub output: PathBuf,
+    #[arg(long, default_value_t = 8)]
+    pub subjects: usize,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// A built-in target model.
+    #[arg(long, value_enum, conflicts_with_all = ["method", "saliency", "vertices"])]
+    pub model: Option<BuiltinModel>,
+    /// Targets drawn from this method's saliency map.
+    #[arg(long, value_enum, conflicts_with_all = ["saliency", "vertices"])]
+    pub method: Option<Method>,
+    /// Targets drawn from a per-vertex map file (vertex,value).
+    #[arg(long, conflicts_with = "vertices")]
+    pub saliency: Option<PathBuf>,
+    /// Only these target vertices (comma-separated indices).
+    #[arg(long, value_delimiter = ',')]
+    pub vertices: Option<Vec<usize>>,
+    /// The stimulus name in the recordings' messages [default: the mesh file name with .mp4].
+    #[arg(long)]
+    pub stimulus_name: Option<String>,
+    /// RMS accuracy error per fixation, degrees (RED250: 0.4).
+    #[arg(long, default_value_t = 0.4)]
+    pub accuracy_deg: f64,
+    /// RMS sample-to-sample jitter per axis, degrees.
+    #[arg(long, default_value_t = 0.03)]
+    pub precision_deg: f64,
+    /// Target probability ∝ saliency^sharpness.
+    #[arg(long, default_value_t = 2.0)]
+    pub sharpness: f64,
+    /// Smallest saccade, degrees (keeps consecutive fixations apart for the detector).
+    #[arg(long, default_value_t = 2.0)]
+    pub min_saccade_deg: f64,
+    /// Chance of a blink after each fixation.
+    #[arg(long, default_value_t = 0.05)]
+    pub blink_probability: f64,
+    /// The mesh, if it moved since the stimulus was rendered (its hash must match).
+    #[arg(long)]
+    pub mesh: Option<PathBuf>,
+    #[arg(short, long)]
+    pub quiet: bool,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum BuiltinModel {
+    /// Distance from the mesh's centroid: protruding parts attract.
+    Extremity,
+    /// Every visible vertex equally.
+    Uniform,
+}
+
+#[derive(Serialize)]
+struct Sidecar<'a> {
+    provenance: Provenance,
+    stimulus_name: &'a str,
+    model: String,
+    parameters: &'a ObserverParams,
+    subjects: Vec<SubjectFacts>,
+}
+
+#[derive(Serialize)]
+struct SubjectFacts {
+    id: String,
+    head_distance_mm: f64,
+    samples: usize,
+    lost_samples: usize,
+    fixations: usize,
+    fixations_with_target: usize,
+    files: [String; 2],
+}
+
+pub fn run(args: SimulateArgs) -> Result<()> {
+    let stim = load_stimulus(&args.stimulus, args.mesh.as_deref()).map_err(anyhow::Error::msg)?;
+    let mesh = &stim.mesh;
+    let bars = Bars::new(args.quiet);
+    let mut inputs = vec![
+        InputFile::hash(&stim.manifest_path)?,
+        InputFile::hash(&stim.mesh_path)?,
+    ];
+    let (model, model_name) = match (&args.model, &args.method, &args.saliency, &args.vertices) {
+        (_, Some(m), _, _) => {
+            let out = compute_saliency(*m, mesh, &SmsParams::default(), &bars)
+                .map_err(anyhow::Error::msg)?;
+            (
+                TargetModel::Saliency(out.values),
+                format!("method {}", m.name()),
+            )
+        }
+        (_, _, Some(file), _) => {
+            let GroundTruth::VertexMap(m) = load_ground_truth(file, mesh.positions.len(), 0.05)?
+            else {
+                bail!(
+                    "{}: expected a per-vertex map (vertex,value)",
+                    file.display()
+                );
+            };
+            inputs.push(InputFile::hash(file)?);
+            (
+                TargetModel::Saliency(m.values),
+                format!("map {}", file.display()),
+            )
+        }
+        (_, _, _, Some(v)) => {
+            if v.is_empty() {
+                bail!("--vertices: give at least one vertex index");
+            }
+            (
+                TargetModel::Vertices(v.clone()),
+                format!("{} listed vertices", v.len()),
+            )
+        }
+        (Some(BuiltinModel::Uniform), _, _, _) => (
+            TargetModel::Saliency(vec![1.0; mesh.positions.len()]),
+            "uniform".to_string(),
+        ),
+        _ => (
+            TargetModel::Saliency(extremity_map(mesh)),
+            "extremity (distance from the centroid)".to_string(),
+        ),
+    };
+    let stimulus_name = args
+        .stimulus_name
+        .clone()
+        .unwrap_or_else(|| format!("{}.mp4", stim.mesh_stem()));
+    let params = ObserverParams {
+        subjects: args.subjects,
+        seed: args.seed,
+        accuracy_deg: args.accuracy_deg,
+        precision_deg: args.precision_deg,
+        sharpness: args.sharpness,
+        min_saccade_deg: args.min_saccade_deg,
+        blink_probability: args.blink_probability,
+        ..ObserverParams::default()
+    };
+    if args.subjects == 0 {
+        bail!("--subjects must be at least 1");
+    }
+    bars.start("simulating observers", 0);
+    let subjects = simulate_observers(
+        mesh,
+        &stim.plan,
+        &stim.protocol,
+        &model,
+        &stimulus_name,
+        &params,
+    )
+    .map_err(anyhow::Error::msg)?;
+    bars.finish();
+    std::fs::create_dir_all(&args.output)
+        .with_context(|| format!("cannot create {}", args.output.display()))?;
+    let mut facts = Vec::new();
+    for s in &subjects {
+        let a = format!("{}_samples.txt", s.id);
+        let c = format!("{}_events.txt", s.id);
+        let pa = args.output.join(&a);
+        std::fs::write(&pa, write_samples_a(&s.header, &s.samples, &s.messages))
+            .with_context(|| format!("cannot write {}", pa.display()))?;
+        let pc = args.output.join(&c);
+        std::fs::write(&pc, write_events_c1(&s.header, &s.events, &s.messages))
+            .with_context(|| format!("cannot write {}", pc.display()))?;
+        facts.push(SubjectFacts {
+            id: s.id.clone(),
+            head_distance_mm: s.head_distance_mm,
+            samples: s.samples.len(),
+            lost_samples: s
+                .samples
+                .iter()
+                .filter(|x| !x.left.is_some_and(|e| e.valid))
+                .count(),
+            fixations: s.fixations.len(),
+            fixations_with_target: s.fixations.iter().filter(|f| f.vertex.is_some()).count(),
+            files: [a, c],
+        });
+    }
+    let tp = args.output.join("targets.csv");
+    write_targets_csv(
+        std::io::BufWriter::new(
+            std::fs::File::create(&tp)
+                .with_context(|| format!("cannot create {}", tp.display()))?,
+        ),
+        &subjects,
+    )
+    .map_err(anyhow::Error::msg)?;
+    let sidecar = Sidecar {
+        provenance: Provenance::new(inputs),
+        stimulus_name: &stimulus_name,
+        model: model_name.clone(),
+        parameters: &params,
+        subjects: facts,
+    };
+    let jp = args.output.join("simulate.json");
+    std::fs::write(&jp, serde_json::to_string_pretty(&sidecar)? + "\n")
+        .with_context(|| format!("cannot write {}", jp.display()))?;
+    if !args.quiet {
+        let n: usize = subjects.iter().map(|s| s.fixations.len()).sum();
+        eprintln!(
+            "{} virtual subjects ({model_name}), {n} fixations; wrote sNN_samples.txt (format A), sNN_events.txt (format C1), targets.csv, simulate.json to {}",
+            subjects.len(),
+            args.output.display()
+        );
+    }
+    Ok(())
+}

@@ -1,0 +1,148 @@
+//! The paper's robustness experiment (§5.4, Fig. 8): each method's map on damaged copies of
+//! a mesh (noise along normals, simplification, holes), carried back to the original
+//! vertices and compared with the method's own map on the clean mesh.
+use serde::Serialize;
+
+use crate::experiments::corruption::{
+    add_normal_noise, cut_holes, transfer_by_nearest_surface_point,
+};
+use crate::mesh::geometry::{pearson, BoundingBox, Normalization};
+use crate::mesh::simplification::simplify_to_vertex_count;
+use crate::mesh::Mesh;
+use crate::progress::Progress;
+use crate::saliency::{compute_saliency, Method, SmsParams};
+use crate::scoring::auc_judd;
+
+#[derive(Debug, Clone, Serialize)]
+pub struct RobustnessParams {
+    /// Noise σ as a fraction of the mean edge length (paper: 20%).
+    pub noise_fraction: f64,
+    /// Vertices after simplification (paper: 5k).
+    pub simplify_to: usize,
+    pub holes: usize,
+    /// Hole radius in normalized units (half principal-axes box diagonal = 1).
+    pub hole_radius: f64,
+    /// Positives of the agreement AUC: this top fraction of the clean map.
+    pub top_fraction: f64,
+    pub seed: u64,
+}
+
+impl Default for RobustnessParams {
+    fn default() -> Self {
+        RobustnessParams {
+            noise_fraction: 0.2,
+            simplify_to: 5000,
+            holes: 5,
+            hole_radius: 0.05,
+            top_fraction: 0.1,
+            seed: 1,
+        }
+    }
+}
+
+/// One damaged copy of the mesh.
+pub struct Corrupted {
+    pub name: &'static str,
+    pub mesh: Mesh,
+    pub description: String,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct AgreementRow {
+    pub method: String,
+    pub corruption: &'static str,
+    /// Pearson correlation with the clean map over the original vertices.
+    pub pearson: f64,
+    /// AUC of the carried-back map at finding the clean map's top vertices.
+    pub auc_top: f64,
+    pub seconds: f64,
+}
+
+pub struct RobustnessResult {
+    pub corrupted: Vec<Corrupted>,
+    /// Per method: the clean map, then each corrupted copy's own map (on its vertices).
+    pub maps: Vec<(Method, Vec<f64>, Vec<Vec<f64>>)>,
+    pub rows: Vec<AgreementRow>,
+}
+
+/// The three damaged copies of the paper's Fig. 8.
+pub fn corrupt(mesh: &Mesh, p: &RobustnessParams) -> Vec<Corrupted> {
+    let radius = Normalization::of_mesh(mesh, BoundingBox::Oriented).radius;
+    let noisy = add_normal_noise(mesh, p.noise_fraction, p.seed);
+    let (simplified, _) = simplify_to_vertex_count(mesh, p.simplify_to);
+    let (holed, _) = cut_holes(mesh, p.holes, p.hole_radius * radius, p.seed);
+    vec![
+        Corrupted {
+            name: "noise",
+            description: format!(
+                "Gaussian noise along vertex normals, σ = {}% of the mean edge length",
+                100.0 * p.noise_fraction
+            ),
+            mesh: noisy,
+        },
+        Corrupted {
+            name: "simplified",
+            description: format!(
+                "quadric edge collapse (meshoptimizer) to {} vertices (asked {})",
+                simplified.positions.len(),
+                p.simplify_to
+            ),
+            mesh: simplified,
+        },
+        Corrupted {
+            name: "holes",
+            description: format!(
+                "{} patches of radius {} (normalized units) removed: {} of {} triangles left",
+                p.holes,
+                p.hole_radius,
+                holed.triangles.len(),
+                mesh.triangles.len()
+            ),
+            mesh: holed,
+        },
+    ]
+}
+
+/// Runs every method on the clean mesh and on each damaged copy.
+pub fn robustness(
+    mesh: &Mesh,
+    methods: &[Method],
+    sms: &SmsParams,
+    p: &RobustnessParams,
+    progress: &dyn Progress,
+) -> Result<RobustnessResult, String> {
+    let corrupted = corrupt(mesh, p);
+    let n = mesh.positions.len();
+    let k = ((p.top_fraction * n as f64).round() as usize).clamp(1, n);
+    let mut maps = Vec::new();
+    let mut rows = Vec::new();
+    for &method in methods {
+        let clean = compute_saliency(method, mesh, sms, progress)?;
+        // The clean map's top k vertices (ties to the lower index).
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&a, &b| clean.values[b].total_cmp(&clean.values[a]).then(a.cmp(&b)));
+        let mut positive = vec![false; n];
+        for &v in &order[..k] {
+            positive[v] = true;
+        }
+        let mut own = Vec::new();
+        for c in &corrupted {
+            let out = compute_saliency(method, &c.mesh, sms, progress)?;
+            let back = transfer_by_nearest_surface_point(&c.mesh, &out.values, &mesh.positions);
+            rows.push(AgreementRow {
+                method: method.name().to_string(),
+                corruption: c.name,
+                pearson: pearson(&clean.values, &back),
+                auc_top: auc_judd(&back, &positive, None),
+                seconds: out.seconds,
+            });
+            own.push(out.values);
+        }
+        maps.push((method, clean.values, own));
+    }
+    Ok(RobustnessResult {
+        corrupted,
+        maps,
+        rows,
+    })
+}

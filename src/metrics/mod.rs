@@ -1,9 +1,0 @@
-//! Measures on saliency maps: sparsity, and agreement with human ground truth.
-pub mod auc;
-pub mod gini;
-pub mod map_agreement;
-pub mod surface_blur;
-
-pub use auc::{auc_borji, auc_judd};
-pub use gini::{gini_index, lorenz_curve};
-pub use map_agreement::{kl_divergence, lcc, nss, sim};

@@ -1,0 +1,211 @@
+//! A saliency map on disk: PREFIX.csv (`vertex,saliency`), PREFIX.ply (the mesh coloured by
+//! the map) and PREFIX.json (provenance), as `meshgaze saliency` writes and every later stage
+//! reads.
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use serde::Serialize;
+
+use super::{compute_saliency, sparse_metric_saliency, Method, SmsExtras, SmsParams, SmsResult};
+use crate::mesh::{write_ply_with_quality, LoadReport, Mesh};
+use crate::progress::Progress;
+use crate::provenance::{InputFile, Provenance};
+use crate::scoring::gini_index;
+use crate::truth::{load_ground_truth, GroundTruth};
+
+/// `PREFIX` without a trailing .csv/.ply/.json, so `-o out.csv` means prefix `out`.
+pub fn output_prefix(p: &Path) -> PathBuf {
+    match p.extension().and_then(|e| e.to_str()) {
+        Some("csv" | "ply" | "json") => p.with_extension(""),
+        _ => p.to_path_buf(),
+    }
+}
+
+/// `prefix` with `suffix` appended to its last component (`out` + `.csv` = `out.csv`).
+pub fn with_suffix(prefix: &Path, suffix: &str) -> PathBuf {
+    let mut s = prefix.as_os_str().to_os_string();
+    s.push(suffix);
+    PathBuf::from(s)
+}
+
+/// Writes `vertex,saliency`, one row per vertex in input order.
+pub fn write_map_csv(path: &Path, values: &[f64]) -> Result<()> {
+    let mut out = std::io::BufWriter::new(
+        std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?,
+    );
+    writeln!(out, "vertex,saliency")?;
+    for (i, v) in values.iter().enumerate() {
+        // `{}` prints the shortest text that reads back to the same f64: exact and stable.
+        writeln!(out, "{i},{v}")?;
+    }
+    out.flush()?;
+    Ok(())
+}
+
+/// Reads a per-vertex map (`vertex,saliency` CSV, or any per-vertex format the truth reader
+/// takes) of a mesh with `n_vertices` vertices.
+pub fn read_map(path: &Path, n_vertices: usize) -> Result<Vec<f64>> {
+    match load_ground_truth(path, n_vertices, 0.05)? {
+        GroundTruth::VertexMap(m) => Ok(m.values),
+        GroundTruth::Fixations(_) => bail!(
+            "{}: expected a per-vertex map (vertex,saliency), found a fixation set",
+            path.display()
+        ),
+    }
+}
+
+/// Which optional SMS outputs to write beside the map.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct MapOutputs {
+    /// PREFIX.samples.csv: sample positions and their sparse saliency.
+    pub per_sample: bool,
+    /// One map per scale (paper Fig. 3).
+    pub per_scale: bool,
+    /// The map without sparsity, μ = 1 (paper Fig. 2).
+    pub dense: bool,
+}
+
+/// The JSON sidecar of a saliency map.
+#[derive(Serialize)]
+struct Sidecar<'a> {
+    provenance: Provenance,
+    method: Method,
+    /// SMS parameters (for sms only; other methods report theirs in `report`).
+    parameters: Option<&'a SmsParams>,
+    mesh: &'a LoadReport,
+    report: serde_json::Value,
+    gini_index: f64,
+    seconds: f64,
+    extra_maps: Vec<(String, f64)>,
+    outputs: Vec<String>,
+}
+
+/// What one map computation produced.
+pub struct SaliencyRun {
+    pub gini: f64,
+    pub seconds: f64,
+    pub values: Vec<f64>,
+    /// Every file written.
+    pub outputs: Vec<String>,
+    /// The SMS result (steps, convergence), for --method sms.
+    pub sms: Option<SmsResult>,
+}
+
+/// Computes `method`'s map of `mesh` and writes PREFIX.csv, .ply, .json (and the SMS extras
+/// asked for).
+#[allow(clippy::too_many_arguments)]
+pub fn compute_and_write_map(
+    mesh_path: &Path,
+    mesh: &Mesh,
+    load: &LoadReport,
+    input: InputFile,
+    method: Method,
+    params: &SmsParams,
+    extras: MapOutputs,
+    prefix: &Path,
+    progress: &dyn Progress,
+) -> Result<SaliencyRun> {
+    let fail = |e: String| anyhow::anyhow!("{}: {e}", mesh_path.display());
+    let wants_extras = extras.per_sample || extras.per_scale || extras.dense;
+    if wants_extras && method != Method::Sms {
+        bail!("--per-sample, --per-scale and --dense apply to --method sms only");
+    }
+    let (values, report, seconds, sms_result) = if method == Method::Sms {
+        let wanted = SmsExtras {
+            per_scale: extras.per_scale,
+            dense: extras.dense,
+        };
+        let r = sparse_metric_saliency(mesh, params, wanted, progress).map_err(fail)?;
+        let report = serde_json::to_value(&r.report)?;
+        (
+            r.vertex_saliency.clone(),
+            report,
+            r.report.timings.total_s,
+            Some(r),
+        )
+    } else {
+        let out = compute_saliency(method, mesh, params, progress).map_err(fail)?;
+        (out.values, out.report, out.seconds, None)
+    };
+    let gini = gini_index(&values);
+    if let Some(dir) = prefix.parent().filter(|d| !d.as_os_str().is_empty()) {
+        crate::file_bytes::create_output_dir(dir)?;
+    }
+    let mut outputs = Vec::new();
+    let csv = with_suffix(prefix, ".csv");
+    write_map_csv(&csv, &values)?;
+    outputs.push(csv.display().to_string());
+    let comments = vec![
+        format!(
+            "meshgaze {} {} saliency of {}",
+            env!("CARGO_PKG_VERSION"),
+            method.name(),
+            mesh_path.display()
+        ),
+        format!("input sha256 {}", input.sha256),
+        "quality = saliency in [0,1]; colour ramp blue (low) to red (high)".to_string(),
+    ];
+    let ply = with_suffix(prefix, ".ply");
+    write_ply_with_quality(&ply, mesh, &values, &comments)
+        .with_context(|| format!("cannot write {}", ply.display()))?;
+    outputs.push(ply.display().to_string());
+    let mut extra_maps = Vec::new();
+    if let Some(result) = &sms_result {
+        if extras.per_sample {
+            outputs.push(write_samples_csv(prefix, result)?);
+        }
+        for extra in &result.extras {
+            let base = with_suffix(prefix, &format!(".{}", extra.name));
+            let c = with_suffix(&base, ".csv");
+            write_map_csv(&c, &extra.vertex_saliency)?;
+            let p = with_suffix(&base, ".ply");
+            write_ply_with_quality(&p, mesh, &extra.vertex_saliency, &comments)
+                .with_context(|| format!("cannot write {}", p.display()))?;
+            outputs.push(c.display().to_string());
+            outputs.push(p.display().to_string());
+            extra_maps.push((extra.name.clone(), extra.gini));
+        }
+    }
+    let json = with_suffix(prefix, ".json");
+    outputs.push(json.display().to_string());
+    let sidecar = Sidecar {
+        provenance: Provenance::new(vec![input]),
+        method,
+        parameters: (method == Method::Sms).then_some(params),
+        mesh: load,
+        report,
+        gini_index: gini,
+        seconds,
+        extra_maps,
+        outputs: outputs.clone(),
+    };
+    std::fs::write(&json, serde_json::to_string_pretty(&sidecar)? + "\n")
+        .with_context(|| format!("cannot write {}", json.display()))?;
+    Ok(SaliencyRun {
+        gini,
+        seconds,
+        values,
+        outputs,
+        sms: sms_result,
+    })
+}
+
+fn write_samples_csv(prefix: &Path, result: &SmsResult) -> Result<String> {
+    let path = with_suffix(prefix, ".samples.csv");
+    let mut out = std::io::BufWriter::new(
+        std::fs::File::create(&path)
+            .with_context(|| format!("cannot create {}", path.display()))?,
+    );
+    writeln!(out, "sample,x,y,z,saliency")?;
+    for (i, (p, s)) in result
+        .sample_points
+        .iter()
+        .zip(&result.sample_saliency)
+        .enumerate()
+    {
+        writeln!(out, "{i},{},{},{},{s}", p.x, p.y, p.z)?;
+    }
+    out.flush()?;
+    Ok(path.display().to_string())
+}

@@ -1,0 +1,157 @@
+//! Scoring over a dataset: pairing meshes with their truth files by name, the per-mesh
+//! entries, the mean over meshes, and the score table as CSV rows and Markdown.
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use serde::Serialize;
+
+use super::{MethodSummary, ScoreRow};
+use crate::mesh::{LoadReport, MeshFormat};
+
+/// A mesh's name: its file name up to the first dot (`bunny.ply.gz` → `bunny`).
+pub fn mesh_stem(path: &Path) -> String {
+    let file = path.file_name().unwrap_or_default().to_string_lossy();
+    file.split('.').next().unwrap_or("mesh").to_string()
+}
+
+/// One mesh's scores, as score.json lists them.
+#[derive(Serialize)]
+pub struct MeshEntry {
+    pub mesh: String,
+    pub load: LoadReport,
+    pub truth_kind: &'static str,
+    pub positives: usize,
+    pub fixations: usize,
+    pub human_splits: usize,
+    pub seconds_per_method: Vec<(String, f64)>,
+    pub summaries: Vec<MethodSummary>,
+}
+
+/// Pairs DIR/meshes/NAME.* with DIR/truth/NAME[_.]*.
+pub fn dataset_pairs(dir: &Path) -> Result<Vec<(String, PathBuf, PathBuf)>> {
+    let meshes_dir = dir.join("meshes");
+    let truth_dir = dir.join("truth");
+    let list = |d: &Path| -> Result<Vec<PathBuf>> {
+        let mut v: Vec<PathBuf> = std::fs::read_dir(d)
+            .with_context(|| format!("cannot read {}", d.display()))?
+            .filter_map(|e| e.ok().map(|e| e.path()))
+            .filter(|p| p.is_file())
+            .collect();
+        v.sort();
+        Ok(v)
+    };
+    let truths = list(&truth_dir)?;
+    let mut pairs = Vec::new();
+    for mesh in list(&meshes_dir)? {
+        if MeshFormat::from_path(&mesh).is_none() {
+            continue;
+        }
+        let name = mesh_stem(&mesh);
+        let matches: Vec<&PathBuf> = truths
+            .iter()
+            .filter(|t| {
+                let f = t.file_name().unwrap_or_default().to_string_lossy();
+                f.starts_with(&format!("{name}_")) || f.starts_with(&format!("{name}."))
+            })
+            .collect();
+        match matches.as_slice() {
+            [t] => pairs.push((name, mesh.clone(), (*t).clone())),
+            [] => bail!(
+                "{}: no truth file named {name}_* or {name}.* in {}",
+                mesh.display(),
+                truth_dir.display()
+            ),
+            _ => bail!(
+                "{}: several truth files match {name}: {matches:?}",
+                mesh.display()
+            ),
+        }
+    }
+    if pairs.is_empty() {
+        bail!("{}: no meshes found", meshes_dir.display());
+    }
+    Ok(pairs)
+}
+
+/// The mean of each method's summary over meshes (methods of the first mesh, in its order).
+pub fn mean_summaries(entries: &[MeshEntry]) -> Vec<MethodSummary> {
+    let Some(first) = entries.first() else {
+        return Vec::new();
+    };
+    first
+        .summaries
+        .iter()
+        .map(|s| {
+            let all: Vec<&MethodSummary> = entries
+                .iter()
+                .filter_map(|e| e.summaries.iter().find(|x| x.method == s.method))
+                .collect();
+            let mean = |f: &dyn Fn(&MethodSummary) -> f64| {
+                all.iter().map(|x| f(x)).sum::<f64>() / all.len() as f64
+            };
+            MethodSummary {
+                method: s.method.clone(),
+                auc_judd_unblurred: mean(&|x| x.auc_judd_unblurred),
+                auc_judd_peak: mean(&|x| x.auc_judd_peak),
+                auc_judd_peak_blur: mean(&|x| x.auc_judd_peak_blur),
+                chance_auc_judd_at_peak: mean(&|x| x.chance_auc_judd_at_peak),
+                lcc_unblurred: mean(&|x| x.lcc_unblurred),
+                lcc_peak: mean(&|x| x.lcc_peak),
+                lcc_peak_blur: mean(&|x| x.lcc_peak_blur),
+                nss_unblurred: mean(&|x| x.nss_unblurred),
+                gini_unblurred: mean(&|x| x.gini_unblurred),
+            }
+        })
+        .collect()
+}
+
+/// The header of the score CSV (`mesh,method,metric,blur,value`).
+pub const SCORE_CSV_HEADER: &str = "mesh,method,metric,blur,value";
+
+/// Writes one mesh's score rows under [`SCORE_CSV_HEADER`].
+pub fn write_score_rows(
+    out: &mut impl Write,
+    mesh: &str,
+    rows: &[ScoreRow],
+) -> std::io::Result<()> {
+    for r in rows {
+        writeln!(
+            out,
+            "{mesh},{},{},{},{}",
+            r.method, r.metric, r.blur, r.value
+        )?;
+    }
+    Ok(())
+}
+
+/// The Markdown table of AUC-Judd and LCC, unblurred and at the peak, per mesh and mean.
+pub fn score_table_markdown(entries: &[MeshEntry], mean: &[MethodSummary]) -> String {
+    let mut t = String::new();
+    t.push_str("| mesh | method | AUC-Judd σ=0 | AUC-Judd peak (σ_b) | chance at that σ_b | LCC σ=0 | LCC peak (σ_b) |");
+    println!("|---|---|---:|---:|---:|---:|---:|\n");
+    let row = |t: &mut String, mesh: &str, s: &MethodSummary| {
+        t.push_str(&format!(
+            "| {mesh} | {} | {:.3} | {:.3} ({:.2}) | {:.3} | {:.3} | {:.3} ({:.2}) |\n",
+            s.method,
+            s.auc_judd_unblurred,
+            s.auc_judd_peak,
+            s.auc_judd_peak_blur,
+            s.chance_auc_judd_at_peak,
+            s.lcc_unblurred,
+            s.lcc_peak,
+            s.lcc_peak_blur
+        ))
+    };
+    for e in entries {
+        for s in &e.summaries {
+            row(&mut t, &e.mesh, s);
+        }
+    }
+    if entries.len() > 1 {
+        for s in mean {
+            row(&mut t, "**mean**", s);
+        }
+    }
+    t
+}

@@ -1,0 +1,13 @@
+//! Measures on saliency maps: sparsity, and agreement with human ground truth.
+pub mod auc;
+pub mod dataset;
+pub mod gini;
+pub mod map_agreement;
+pub mod mesh_score;
+pub mod surface_blur;
+
+pub use auc::{auc_borji, auc_judd};
+pub use gini::{gini_index, lorenz_curve};
+pub use map_agreement::{kl_divergence, lcc, nss, sim};
+
+pub use mesh_score::*;

@@ -1,0 +1,387 @@
+//! Human ground truth for scoring, in the formats documented in docs/ground-truth-format.md:
+//! a per-vertex map (one value per vertex, optionally with a 0/1 "fixated" flag, as in the
+//! `time bin` files of the VR dataset), or a fixation set (CSV with `subject` and `vertex`
+//! columns, one row per fixation, as `meshgaze truth` writes).
+pub mod build;
+
+pub use build::{
+    build_truth, projected_file, read_projections, write_truth, Projections, TruthParams,
+    TruthResult,
+};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::file_bytes::{read_maybe_gzipped, ReadError};
+
+#[derive(Debug, thiserror::Error)]
+pub enum TruthError {
+    #[error("{path}: {error}")]
+    Io {
+        path: PathBuf,
+        error: std::io::Error,
+    },
+    #[error("{path}:{line}:{column}: {message}")]
+    At {
+        path: PathBuf,
+        line: usize,
+        column: usize,
+        message: String,
+    },
+    #[error("{path}: {message}")]
+    File { path: PathBuf, message: String },
+}
+
+/// A per-vertex human map.
+#[derive(Debug, Clone, Serialize)]
+pub struct VertexTruth {
+    pub values: Vec<f64>,
+    /// Vertices counted as fixated for AUC and NSS.
+    pub positive: Vec<bool>,
+    /// How `positive` was decided.
+    pub positive_rule: String,
+}
+
+#[derive(Debug, Clone, Serialize, PartialEq, Eq)]
+pub struct Fixation {
+    pub subject: String,
+    pub vertex: usize,
+}
+
+/// Fixations with subject ids, already projected to vertices.
+#[derive(Debug, Clone, Serialize)]
+pub struct FixationTruth {
+    pub fixations: Vec<Fixation>,
+    /// Subject ids in first-seen order.
+    pub subjects: Vec<String>,
+    pub rows: usize,
+    /// Rows whose `fate` says the fixation did not land on the mesh, by fate.
+    pub rows_not_on_mesh: BTreeMap<String, usize>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum GroundTruth {
+    VertexMap(VertexTruth),
+    Fixations(FixationTruth),
+}
+
+impl GroundTruth {
+    /// Vertices counted as fixated (each once).
+    pub fn positive(&self, n: usize) -> Vec<bool> {
+        match self {
+            GroundTruth::VertexMap(m) => m.positive.clone(),
+            GroundTruth::Fixations(f) => {
+                let mut p = vec![false; n];
+                for x in &f.fixations {
+                    p[x.vertex] = true;
+                }
+                p
+            }
+        }
+    }
+
+    /// Fixated vertices with multiplicity (for NSS and AUC-Borji).
+    pub fn fixated(&self) -> Vec<usize> {
+        match self {
+            GroundTruth::VertexMap(m) => (0..m.positive.len()).filter(|&i| m.positive[i]).collect(),
+            GroundTruth::Fixations(f) => f.fixations.iter().map(|x| x.vertex).collect(),
+        }
+    }
+}
+
+fn read_text(path: &Path) -> Result<String, TruthError> {
+    let bytes = read_maybe_gzipped(path).map_err(|e| match e {
+        ReadError::Io(source) => TruthError::Io {
+            path: path.to_path_buf(),
+            error: source,
+        },
+        ReadError::CorruptGzip(e) => TruthError::File {
+            path: path.to_path_buf(),
+            message: format!("gzip data is corrupt: {e}"),
+        },
+    })?;
+    let text = String::from_utf8(bytes).map_err(|e| TruthError::File {
+        path: path.to_path_buf(),
+        message: format!("not UTF-8 text (byte {})", e.utf8_error().valid_up_to()),
+    })?;
+    Ok(text.strip_prefix('\u{feff}').unwrap_or(&text).to_string())
+}
+
+/// The file's field separator, from its first line: a comma, tab or semicolon splits strictly
+/// (empty fields stay in place, so an empty `vertex` of a background fixation does not shift
+/// the columns); otherwise runs of spaces separate.
+fn sniff_separator(first_line: &str) -> Option<char> {
+    [',', '\t', ';']
+        .into_iter()
+        .find(|&c| first_line.contains(c))
+}
+
+fn fields(line: &str, sep: Option<char>) -> Vec<(usize, &str)> {
+    // Columns are 1-based character offsets.
+    let mut out = Vec::new();
+    match sep {
+        Some(sep) => {
+            let mut start = 0;
+            for (i, c) in line.char_indices() {
+                if c == sep {
+                    out.push((start + 1, line[start..i].trim()));
+                    start = i + c.len_utf8();
+                }
+            }
+            out.push((start + 1, line[start..].trim()));
+        }
+        None => {
+            let mut start = None;
+            for (i, c) in line.char_indices() {
+                match (c.is_whitespace(), start) {
+                    (true, Some(s)) => {
+                        out.push((s + 1, &line[s..i]));
+                        start = None;
+                    }
+                    (false, None) => start = Some(i),
+                    _ => {}
+                }
+            }
+            if let Some(s) = start {
+                out.push((s + 1, line[s..].trim_end()));
+            }
+        }
+    }
+    out
+}
+
+/// Reads ground truth for a mesh with `n_vertices` vertices. For a map without a flag column,
+/// the top `top_fraction` of vertices by value are the positives.
+pub fn load_ground_truth(
+    path: &Path,
+    n_vertices: usize,
+    top_fraction: f64,
+) -> Result<GroundTruth, TruthError> {
+    let text = read_text(path)?;
+    let at = |line: usize, column: usize, message: String| TruthError::At {
+        path: path.to_path_buf(),
+        line,
+        column,
+        message,
+    };
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty());
+    let Some((first_no, first)) = lines.next() else {
+        return Err(TruthError::File {
+            path: path.to_path_buf(),
+            message: "the file is empty".into(),
+        });
+    };
+    let sep = sniff_separator(first);
+    let header: Vec<String> = fields(first, sep)
+        .iter()
+        .map(|(_, f)| f.trim().to_ascii_lowercase())
+        .collect();
+    let is_header = header.iter().any(|h| h.parse::<f64>().is_err());
+    if is_header && header.contains(&"subject".to_string()) {
+        let col = |name: &str| header.iter().position(|h| h == name);
+        let subject_col = col("subject").expect("checked");
+        let vertex_col = col("vertex").ok_or_else(|| {
+            at(
+                first_no + 1,
+                1,
+                "a fixation file needs a `vertex` column beside `subject`".into(),
+            )
+        })?;
+        let fate_col = col("fate");
+        let mut fixations = Vec::new();
+        let mut subjects: Vec<String> = Vec::new();
+        let mut not_on_mesh = BTreeMap::new();
+        let mut rows = 0;
+        for (no, line) in lines {
+            rows += 1;
+            let f = fields(line, sep);
+            let get = |c: usize, name: &str| {
+                f.get(c).copied().ok_or_else(|| {
+                    at(
+                        no + 1,
+                        line.len() + 1,
+                        format!("the row has no `{name}` value (column {})", c + 1),
+                    )
+                })
+            };
+            if let Some(fc) = fate_col {
+                let fate = get(fc, "fate")?.1.trim();
+                if fate != "hit" && fate != "snapped" {
+                    *not_on_mesh.entry(fate.to_string()).or_insert(0) += 1;
+                    continue;
+                }
+            }
+            let subject = get(subject_col, "subject")?.1.trim().to_string();
+            let (vc, vtext) = get(vertex_col, "vertex")?;
+            let vertex: usize = vtext.trim().parse().map_err(|_| {
+                at(
+                    no + 1,
+                    vc,
+                    format!("expected a vertex index, found `{vtext}`"),
+                )
+            })?;
+            if vertex >= n_vertices {
+                return Err(at(
+                    no + 1,
+                    vc,
+                    format!("vertex {vertex} is out of range: the mesh has {n_vertices} vertices"),
+                ));
+            }
+            if !subjects.contains(&subject) {
+                subjects.push(subject.clone());
+            }
+            fixations.push(Fixation { subject, vertex });
+        }
+        return Ok(GroundTruth::Fixations(FixationTruth {
+            fixations,
+            subjects,
+            rows,
+            rows_not_on_mesh: not_on_mesh,
+        }));
+    }
+    // A per-vertex map. With a header, `vertex,<value>[,<flag>]` (meshgaze's own CSV) is read
+    // by name; without, one row per vertex: `value` or `value flag`.
+    let value_col;
+    let mut flag_col = None;
+    let mut vertex_col = None;
+    let body: Vec<(usize, &str)> = if is_header {
+        vertex_col = header.iter().position(|h| h == "vertex");
+        let others: Vec<usize> = (0..header.len())
+            .filter(|&i| Some(i) != vertex_col)
+            .collect();
+        match others.as_slice() {
+            [v] => value_col = *v,
+            [v, f] => {
+                value_col = *v;
+                flag_col = Some(*f);
+            }
+            _ => {
+                return Err(at(
+                    first_no + 1,
+                    1,
+                    "expected a header `vertex,value`, `vertex,value,flag`, or `subject,vertex,...` for fixations".into(),
+                ))
+            }
+        }
+        lines.collect()
+    } else {
+        value_col = 0;
+        if header.len() >= 2 {
+            flag_col = Some(1);
+        }
+        std::iter::once((first_no, first)).chain(lines).collect()
+    };
+    let mut values = vec![f64::NAN; n_vertices];
+    let mut flags = flag_col.map(|_| vec![false; n_vertices]);
+    for (row, (no, line)) in body.iter().enumerate() {
+        let f = fields(line, sep);
+        let vertex = match vertex_col {
+            Some(c) => {
+                let (col, t) = f
+                    .get(c)
+                    .copied()
+                    .ok_or_else(|| at(no + 1, 1, "missing vertex index".into()))?;
+                t.parse::<usize>()
+                    .map_err(|_| at(no + 1, col, format!("expected a vertex index, found `{t}`")))?
+            }
+            None => row,
+        };
+        if vertex >= n_vertices {
+            return Err(at(
+                no + 1,
+                1,
+                format!(
+                    "more rows than the mesh's {n_vertices} vertices (row for vertex {vertex})"
+                ),
+            ));
+        }
+        let (col, t) = f
+            .get(value_col)
+            .copied()
+            .ok_or_else(|| at(no + 1, 1, "missing value".into()))?;
+        let v: f64 = t
+            .parse()
+            .map_err(|_| at(no + 1, col, format!("expected a number, found `{t}`")))?;
+        if !v.is_finite() {
+            return Err(at(no + 1, col, format!("the value `{t}` is not finite")));
+        }
+        values[vertex] = v;
+        if let (Some(fc), Some(fl)) = (flag_col, flags.as_mut()) {
+            let (col, t) = f
+                .get(fc)
+                .copied()
+                .ok_or_else(|| at(no + 1, line.len() + 1, "missing flag".into()))?;
+            fl[vertex] = match t.parse::<f64>() {
+                Ok(0.0) => false,
+                Ok(1.0) => true,
+                _ => return Err(at(no + 1, col, format!("expected a 0/1 flag, found `{t}`"))),
+            };
+        }
+    }
+    let missing = values.iter().filter(|v| v.is_nan()).count();
+    if missing > 0 {
+        return Err(TruthError::File {
+            path: path.to_path_buf(),
+            message: format!(
+                "{missing} of the mesh's {n_vertices} vertices have no value (the file has {} rows): is it for this mesh?",
+                body.len()
+            ),
+        });
+    }
+    let (positive, rule) = match flags {
+        Some(f) => (f, "flag column (1 = fixated)".to_string()),
+        None => {
+            let k = ((top_fraction * n_vertices as f64).round() as usize).clamp(1, n_vertices);
+            let mut order: Vec<usize> = (0..n_vertices).collect();
+            order.sort_by(|&a, &b| values[b].total_cmp(&values[a]).then(a.cmp(&b)));
+            let mut p = vec![false; n_vertices];
+            for &i in &order[..k] {
+                p[i] = true;
+            }
+            (
+                p,
+                format!(
+                    "top {:.1}% of vertices by value ({k})",
+                    100.0 * top_fraction
+                ),
+            )
+        }
+    };
+    Ok(GroundTruth::VertexMap(VertexTruth {
+        values,
+        positive,
+        positive_rule: rule,
+    }))
+}
+
+/// The fixation set of projected rows (hit and snapped fixations; the rest counted by fate).
+pub fn fixation_truth_from_rows(rows: &[crate::projection::table::ProjectedRow]) -> FixationTruth {
+    let mut subjects: Vec<String> = Vec::new();
+    let mut fixations = Vec::new();
+    let mut rows_not_on_mesh: BTreeMap<String, usize> = BTreeMap::new();
+    for r in rows {
+        match (r.fate().is_some_and(|f| f.on_mesh()), r.vertex) {
+            (true, Some(v)) => {
+                if !subjects.contains(&r.subject) {
+                    subjects.push(r.subject.clone());
+                }
+                fixations.push(Fixation {
+                    subject: r.subject.clone(),
+                    vertex: v,
+                });
+            }
+            _ => *rows_not_on_mesh.entry(r.fate.clone()).or_insert(0) += 1,
+        }
+    }
+    FixationTruth {
+        fixations,
+        subjects,
+        rows: rows.len(),
+        rows_not_on_mesh,
+    }
+}
