@@ -10,6 +10,7 @@ use meshgaze::gaze::fixations::{
     apply_protocol_filter, fixations, Detector, DetectorParams, EyePolicy,
 };
 use meshgaze::gaze::parse_smi;
+use meshgaze::gaze::stimulus_messages::Segmentation;
 use meshgaze::gaze::writers::{write_events_c1, write_samples_a};
 use meshgaze::projection::self_check::self_check;
 use meshgaze::projection::table::ProjectedRow;
@@ -50,7 +51,18 @@ fn ingest_and_project(
         let rec = parse_smi(text.as_bytes(), name, None).expect("our own files parse");
         assert_eq!(rec.rows.unusable_total(), 0, "{name}");
         let subject = rec.header.subject.clone().expect("subject in header");
-        let mut fx = fixations(&rec, &subject, detector, EyePolicy::Best, &params).unwrap();
+        let mut fx = fixations(
+            &rec,
+            &subject,
+            detector,
+            EyePolicy::Best,
+            &params,
+            &Segmentation {
+                pattern: None,
+                max_duration_us: Some((protocol.duration_s() * 1e6).round() as i64),
+            },
+        )
+        .unwrap();
         apply_protocol_filter(
             &mut fx,
             rules.drop_first,

@@ -34,10 +34,15 @@ fn fixation_row() -> impl Strategy<Value = FixationRow> {
             proptest::option::of(finite()),
             proptest::option::of(any::<i64>()),
             text(),
+            text(),
         ),
     )
         .prop_map(
-            |((subject, stimulus, eye, trial, s, e), (d, x, y, disp), (pupil, onset, fate))| {
+            |(
+                (subject, stimulus, eye, trial, s, e),
+                (d, x, y, disp),
+                (pupil, onset, fate, invalid_reason),
+            )| {
                 FixationRow {
                     subject,
                     stimulus,
@@ -52,6 +57,7 @@ fn fixation_row() -> impl Strategy<Value = FixationRow> {
                     pupil,
                     onset_offset_us: onset,
                     fate,
+                    invalid_reason,
                 }
             },
         )

@@ -1,16 +1,23 @@
+use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use clap::Args;
 use serde::Serialize;
 
+use meshgaze::file_bytes::create_output_dir;
 use meshgaze::gaze::fixation_table::{write_fixations_csv, FixationRow};
-use meshgaze::gaze::fixations::{
-    apply_protocol_filter, fixations, Detector, DetectorParams, EyePolicy, Fixation,
+use meshgaze::gaze::fixations::{Detector, DetectorParams, EyePolicy, Fate, Fixation};
+use meshgaze::gaze::ingest::{
+    check_one_source_per_subject, ingest_file, message_kind_counts, write_messages_csv,
+    write_quality_csv, write_samples_rows, FilterRules, IngestParams, IngestedFile,
+    SAMPLES_CSV_HEADER,
 };
 use meshgaze::gaze::model::{Header, RowAccount};
-use meshgaze::gaze::quality::{quality, QualityRow};
+use meshgaze::gaze::stimulus_messages::{
+    classify_messages, message_census, stimulus_segments, Segmentation, StimulusPattern,
+};
 use meshgaze::gaze::{read_smi, SmiFormat};
 use meshgaze::provenance::{InputFile, Provenance};
 use meshgaze::stimulus::Protocol;
@@ -24,21 +31,42 @@ use meshgaze::stimulus::Protocol;
 /// Every line of every file is accounted for: rows that cannot be used are counted by reason
 /// with the line and column of the first one.
 ///
-/// Fixations come from the event export (--detector events, the default for C1) or are
-/// detected in samples (i-dt, the default for A; i-vt). Messages split a recording by
-/// stimulus. Per subject and stimulus the protocol's filter drops the first and last
-/// fixations and keeps the longest; every fixation keeps its fate.
+/// Fixations come from the exporter's events (--detector events, the default for files with
+/// events and no samples: C1, B) or are detected in samples (i-dt, the default for A; i-vt).
 ///
-/// Writes DIR/fixations.csv, DIR/quality.csv, DIR/ingest.json (provenance, headers, row
-/// accounts, parameters) and with --samples DIR/samples.csv.
+/// A message starts a stimulus when it names an image or video file (`bunny.mp4`, a Windows
+/// path ending in `mtemo33.png`, `Elmos World.avi`), or matches --stimulus-pattern. Every other
+/// message (status text, clock stamps, `UE-…` user events, cut-off text) is kept in
+/// messages.csv with its kind and does not end the running stimulus. A stimulus ends at the
+/// next onset, at a --stimulus-end-pattern message, or after the protocol's video length
+/// (48 s for hu2020); fixations after that, or before the first onset, are `invalid` with
+/// the reason. See what a file's messages are with --list-messages.
+///
+/// Per subject and stimulus the protocol's filter drops the first and last fixations and
+/// keeps the longest; every fixation keeps its fate. Two files giving one subject fixations
+/// on the same stimulus (a sample and an event export of one recording) are refused.
+///
+/// Writes DIR/fixations.csv, DIR/messages.csv, DIR/quality.csv, DIR/ingest.json (provenance,
+/// headers, row accounts, message kinds, parameters) and with --samples DIR/samples.csv.
 #[derive(Debug, Args)]
 pub struct IngestArgs {
     /// SMI export files.
     #[arg(required = true)]
     pub files: Vec<PathBuf>,
-    /// Output folder.
-    #[arg(short, long)]
-    pub output: PathBuf,
+    /// Output folder (not needed with --list-messages).
+    #[arg(short, long, required_unless_present = "list_messages")]
+    pub output: Option<PathBuf>,
+    /// Print each file's distinct message texts with their counts and how each is
+    /// classified, then stop: the minute it takes to write a --stimulus-pattern.
+    #[arg(long)]
+    pub list_messages: bool,
+    /// A regular expression with one capture group, the stimulus name, that marks stimulus
+    /// onsets (replaces the image/video file-name rule), e.g. `^start_trial \d+ (.*)$`.
+    #[arg(long)]
+    pub stimulus_pattern: Option<String>,
+    /// A regular expression marking where a stimulus ends (with --stimulus-pattern).
+    #[arg(long, requires = "stimulus_pattern")]
+    pub stimulus_end_pattern: Option<String>,
     /// The protocol whose [fixations] rules apply [default: the built-in hu2020 protocol].
     #[arg(long)]
     pub protocol: Option<PathBuf>,
@@ -79,6 +107,8 @@ struct FileEntry {
     header: Header,
     rows: RowAccount,
     notes: Vec<String>,
+    messages: BTreeMap<&'static str, usize>,
+    stimuli: Vec<String>,
     fixations: usize,
 }
 
@@ -91,182 +121,196 @@ struct Sidecar<'a> {
     keep_longest: usize,
     eye_policy: EyePolicy,
     detector_params: &'a DetectorParams,
+    stimulus_pattern: Option<&'a str>,
+    stimulus_end_pattern: Option<&'a str>,
+    max_stimulus_s: f64,
     files: Vec<FileEntry>,
 }
 
-fn opt(v: Option<f64>) -> String {
-    v.map_or(String::new(), |x| format!("{x}"))
+fn params(args: &IngestArgs, protocol: &Protocol) -> Result<IngestParams> {
+    let rules = &protocol.fixations;
+    // The command line wins over the protocol.
+    let (start, end) = match &args.stimulus_pattern {
+        Some(p) => (Some(p.as_str()), args.stimulus_end_pattern.as_deref()),
+        None => (
+            rules.stimulus_pattern.as_deref(),
+            rules.stimulus_end_pattern.as_deref(),
+        ),
+    };
+    let pattern = start
+        .map(|p| StimulusPattern::new(p, end))
+        .transpose()
+        .map_err(anyhow::Error::msg)?;
+    Ok(IngestParams {
+        format: args.format,
+        detector: args.detector,
+        eye: args.eye,
+        subject: args.subject.clone(),
+        detector_params: DetectorParams {
+            max_dispersion_px: args
+                .max_dispersion_px
+                .unwrap_or(rules.idt_max_dispersion_px),
+            min_duration_ms: args.min_duration_ms.unwrap_or(rules.min_duration_ms),
+            max_velocity_px_s: args
+                .max_velocity_deg_s
+                .unwrap_or(rules.ivt_max_velocity_deg_s)
+                * protocol.display.pixels_per_degree(),
+            ..DetectorParams::default()
+        },
+        filter: FilterRules {
+            drop_first: rules.drop_first,
+            drop_last: rules.drop_last,
+            keep_longest: rules.keep_longest,
+        },
+        segmentation: Segmentation {
+            pattern,
+            max_duration_us: Some((protocol.duration_s() * 1e6).round() as i64),
+        },
+    })
+}
+
+/// --list-messages: each file's distinct messages, counted and classified.
+fn list_messages(args: &IngestArgs, params: &IngestParams) -> Result<()> {
+    for file in &args.files {
+        let rec = read_smi(file, args.format)?;
+        let messages = classify_messages(&rec, &params.segmentation);
+        println!("{}: {} messages", file.display(), messages.len());
+        println!("{:>7}  {:<12}  {:<28}  text", "count", "kind", "stimulus");
+        for (text, n, kind, stimulus) in message_census(&messages) {
+            println!(
+                "{n:>7}  {:<12}  {:<28}  {text}",
+                kind.name(),
+                stimulus.unwrap_or_default()
+            );
+        }
+        let segments = stimulus_segments(&messages, &params.segmentation);
+        println!("  {} stimulus presentations:", segments.len());
+        for s in &segments {
+            println!(
+                "    trial {} at {} µs: {} (ends {}, by {})",
+                s.trial,
+                s.onset_us,
+                s.name,
+                s.end_us
+                    .map_or("open".to_string(), |e| format!("at {e} µs")),
+                s.ended_by
+            );
+        }
+    }
+    Ok(())
+}
+
+fn print_file_summary(f: &IngestedFile) {
+    let rec = &f.recording;
+    eprintln!(
+        "{}: {:?}, {} samples, {} messages, {} events, {} unusable lines; {} fixations ({} kept) over {} stimuli",
+        f.path.display(),
+        rec.format,
+        rec.rows.samples,
+        rec.rows.messages,
+        rec.rows.events,
+        rec.rows.unusable_total(),
+        f.fixations.len(),
+        f.fixations.iter().filter(|x| x.fate == Fate::Kept).count(),
+        stimuli_of(f).len()
+    );
+    for (reason, first) in &rec.rows.unusable {
+        eprintln!(
+            "  {} lines: {reason} (first at {}:{}:{})",
+            first.count,
+            f.path.display(),
+            first.line,
+            first.column
+        );
+    }
+    let mut reasons: BTreeMap<&str, usize> = BTreeMap::new();
+    for x in &f.fixations {
+        if let Some(r) = x.invalid_reason {
+            *reasons.entry(r).or_insert(0) += 1;
+        }
+    }
+    for (r, n) in reasons {
+        eprintln!("  {n} fixations invalid: {r}");
+    }
+    let kinds = message_kind_counts(&f.messages);
+    if !kinds.is_empty() {
+        let list: Vec<String> = kinds.iter().map(|(k, n)| format!("{n} {k}")).collect();
+        eprintln!("  messages: {}", list.join(", "));
+    }
+    for n in &rec.notes {
+        eprintln!("  note: {n}");
+    }
+    for w in &f.warnings {
+        eprintln!("warning: {w}");
+    }
+}
+
+fn stimuli_of(f: &IngestedFile) -> Vec<String> {
+    let mut v: Vec<String> = f
+        .fixations
+        .iter()
+        .filter(|x| !x.stimulus.is_empty())
+        .map(|x| x.stimulus.clone())
+        .collect();
+    v.sort();
+    v.dedup();
+    v
+}
+
+fn create(path: &std::path::Path) -> Result<std::io::BufWriter<std::fs::File>> {
+    Ok(std::io::BufWriter::new(
+        std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?,
+    ))
 }
 
 pub fn run(args: IngestArgs) -> Result<()> {
     let (protocol, _, _) = Protocol::load_or_builtin(args.protocol.as_deref())?;
-    let rules = &protocol.fixations;
-    let params = DetectorParams {
-        max_dispersion_px: args
-            .max_dispersion_px
-            .unwrap_or(rules.idt_max_dispersion_px),
-        min_duration_ms: args.min_duration_ms.unwrap_or(rules.min_duration_ms),
-        max_velocity_px_s: args
-            .max_velocity_deg_s
-            .unwrap_or(rules.ivt_max_velocity_deg_s)
-            * protocol.display.pixels_per_degree(),
-        ..DetectorParams::default()
-    };
-    std::fs::create_dir_all(&args.output)
-        .with_context(|| format!("cannot create {}", args.output.display()))?;
-    let mut all_fix: Vec<Fixation> = Vec::new();
-    let mut all_quality: Vec<QualityRow> = Vec::new();
-    let mut entries = Vec::new();
-    let mut inputs = Vec::new();
-    let mut samples_out = if args.samples {
-        let p = args.output.join("samples.csv");
-        let mut w = std::io::BufWriter::new(
-            std::fs::File::create(&p).with_context(|| format!("cannot create {}", p.display()))?,
-        );
-        writeln!(w, "subject,time_us,trial,left_x,left_y,left_pupil,left_valid,right_x,right_y,right_pupil,right_valid")?;
-        Some(w)
-    } else {
-        None
-    };
-    for file in &args.files {
-        let rec = read_smi(file, args.format)?;
-        inputs.push(InputFile::hash(file)?);
-        let subject = args
-            .subject
-            .clone()
-            .or_else(|| rec.header.subject.clone())
-            .unwrap_or_else(|| {
-                file.file_stem()
-                    .unwrap_or_default()
-                    .to_string_lossy()
-                    .to_string()
-            });
-        let detector = args
-            .detector
-            .unwrap_or(if rec.format == SmiFormat::EventTables {
-                Detector::Events
-            } else {
-                Detector::IDt
-            });
-        if let (Some(rate), Detector::IVt) = (rec.header.sample_rate_hz, detector) {
-            if rate < 200.0 && !args.quiet {
-                eprintln!(
-                    "warning: {}: I-VT at {rate} Hz: velocity detection needs 200 Hz or more",
-                    file.display()
-                );
-            }
-        }
-        let interval_ms = meshgaze::gaze::fixations::sample_interval_us(&rec) as f64 / 1000.0;
-        if !rec.samples.is_empty() && params.min_duration_ms < interval_ms && !args.quiet {
-            eprintln!(
-                "warning: {}: the minimum fixation duration {} ms is shorter than one sample ({interval_ms:.1} ms)",
-                file.display(),
-                params.min_duration_ms
-            );
-        }
-        let mut fx =
-            fixations(&rec, &subject, detector, args.eye, &params).map_err(anyhow::Error::msg)?;
-        apply_protocol_filter(
-            &mut fx,
-            rules.drop_first,
-            rules.drop_last,
-            rules.keep_longest,
-        );
-        all_quality.extend(quality(&rec, &subject, &fx, args.eye));
-        if let Some(w) = samples_out.as_mut() {
-            for s in &rec.samples {
-                let e = |e: Option<meshgaze::gaze::EyeSample>| {
-                    e.map_or(",,,".to_string(), |e| {
-                        format!("{},{},{},{}", e.x, e.y, opt(e.pupil), e.valid as u8)
-                    })
-                };
-                writeln!(
-                    w,
-                    "{subject},{},{},{},{}",
-                    s.time_us,
-                    s.trial,
-                    e(s.left),
-                    e(s.right)
-                )?;
-            }
-        }
-        if !args.quiet {
-            eprintln!(
-                "{}: {:?}, {} samples, {} messages, {} events, {} unusable lines; {} fixations ({} kept)",
-                file.display(),
-                rec.format,
-                rec.rows.samples,
-                rec.rows.messages,
-                rec.rows.events,
-                rec.rows.unusable_total(),
-                fx.len(),
-                fx.iter().filter(|f| f.fate == meshgaze::gaze::fixations::Fate::Kept).count()
-            );
-            for (reason, first) in &rec.rows.unusable {
-                eprintln!(
-                    "  {} lines: {reason} (first at {}:{}:{})",
-                    first.count,
-                    file.display(),
-                    first.line,
-                    first.column
-                );
-            }
-            for n in &rec.notes {
-                eprintln!("  note: {n}");
-            }
-        }
-        entries.push(FileEntry {
-            file: file.display().to_string(),
-            format: rec.format,
-            subject: subject.clone(),
-            detector,
-            header: rec.header.clone(),
-            rows: rec.rows.clone(),
-            notes: rec.notes.clone(),
-            fixations: fx.len(),
-        });
-        all_fix.extend(fx);
+    let params = params(&args, &protocol)?;
+    if args.list_messages {
+        return list_messages(&args, &params);
     }
-    if let Some(mut w) = samples_out {
+    let out = args.output.clone().expect("clap requires --output");
+    let mut files = Vec::new();
+    let mut inputs = Vec::new();
+    for file in &args.files {
+        let f = ingest_file(file, &params).map_err(anyhow::Error::msg)?;
+        inputs.push(
+            InputFile::hash(file).with_context(|| format!("cannot read {}", file.display()))?,
+        );
+        if !args.quiet {
+            print_file_summary(&f);
+        }
+        files.push(f);
+    }
+    check_one_source_per_subject(&files).map_err(anyhow::Error::msg)?;
+    create_output_dir(&out)?;
+    if args.samples {
+        let p = out.join("samples.csv");
+        let mut w = create(&p)?;
+        writeln!(w, "{SAMPLES_CSV_HEADER}")?;
+        for f in &files {
+            write_samples_rows(&mut w, &f.subject, &f.recording)?;
+        }
         w.flush()?;
     }
+    let all_fix: Vec<&Fixation> = files.iter().flat_map(|f| f.fixations.iter()).collect();
     if all_fix.is_empty() && !args.quiet {
         eprintln!("warning: no fixations found");
     }
-    let p = args.output.join("fixations.csv");
-    let file =
-        std::fs::File::create(&p).with_context(|| format!("cannot create {}", p.display()))?;
-    let rows: Vec<FixationRow> = all_fix.iter().map(FixationRow::from).collect();
-    write_fixations_csv(std::io::BufWriter::new(file), &rows)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
-    let q = args.output.join("quality.csv");
-    let mut w = std::io::BufWriter::new(std::fs::File::create(&q)?);
-    writeln!(w, "subject,stimulus,samples,lost_samples,lost_ms,loss_ratio,declared_rate_hz,measured_rate_hz,precision_rms_px,kept,dropped_first,dropped_last,not_longest,invalid")?;
-    for r in &all_quality {
-        let n = |k: &str| r.fixations_by_fate.get(k).copied().unwrap_or(0);
-        writeln!(
-            w,
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
-            r.subject,
-            r.stimulus.replace(',', ";"),
-            r.samples,
-            r.lost_samples,
-            r.lost_ms,
-            r.loss_ratio,
-            opt(r.declared_rate_hz),
-            opt(r.measured_rate_hz),
-            opt(r.precision_rms_px),
-            n("kept"),
-            n("dropped-first"),
-            n("dropped-last"),
-            n("not-longest"),
-            n("invalid")
-        )?;
-    }
+    let p = out.join("fixations.csv");
+    let rows: Vec<FixationRow> = all_fix.iter().map(|f| FixationRow::from(*f)).collect();
+    write_fixations_csv(create(&p)?, &rows).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
+    let m = out.join("messages.csv");
+    write_messages_csv(create(&m)?, &files).map_err(|e| anyhow::anyhow!("{}: {e}", m.display()))?;
+    let q = out.join("quality.csv");
+    let mut w = create(&q)?;
+    let quality: Vec<_> = files
+        .iter()
+        .flat_map(|f| f.quality.iter().cloned())
+        .collect();
+    write_quality_csv(&mut w, &quality)?;
     w.flush()?;
-    if entries.is_empty() {
-        bail!("no input file");
-    }
+    let rules = &protocol.fixations;
     let sidecar = Sidecar {
         provenance: Provenance::new(inputs),
         protocol: &protocol.name,
@@ -274,13 +318,46 @@ pub fn run(args: IngestArgs) -> Result<()> {
         drop_last: rules.drop_last,
         keep_longest: rules.keep_longest,
         eye_policy: args.eye,
-        detector_params: &params,
-        files: entries,
+        detector_params: &params.detector_params,
+        stimulus_pattern: params
+            .segmentation
+            .pattern
+            .as_ref()
+            .map(|p| p.start.as_str()),
+        stimulus_end_pattern: params
+            .segmentation
+            .pattern
+            .as_ref()
+            .and_then(|p| p.end.as_ref())
+            .map(|e| e.as_str()),
+        max_stimulus_s: protocol.duration_s(),
+        files: files
+            .iter()
+            .map(|f| FileEntry {
+                file: f.path.display().to_string(),
+                format: f.recording.format,
+                subject: f.subject.clone(),
+                detector: f.detector,
+                header: f.recording.header.clone(),
+                rows: f.recording.rows.clone(),
+                notes: f.recording.notes.clone(),
+                messages: message_kind_counts(&f.messages),
+                stimuli: stimuli_of(f),
+                fixations: f.fixations.len(),
+            })
+            .collect(),
     };
-    let j = args.output.join("ingest.json");
-    std::fs::write(&j, serde_json::to_string_pretty(&sidecar)? + "\n")?;
+    let j = out.join("ingest.json");
+    std::fs::write(&j, serde_json::to_string_pretty(&sidecar)? + "\n")
+        .with_context(|| format!("cannot write {}", j.display()))?;
     if !args.quiet {
-        eprintln!("wrote {}, {}, {}", p.display(), q.display(), j.display());
+        eprintln!(
+            "wrote {}, {}, {}, {}",
+            p.display(),
+            m.display(),
+            q.display(),
+            j.display()
+        );
     }
     Ok(())
 }

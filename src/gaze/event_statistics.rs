@@ -139,6 +139,12 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
                 None => Ok(None),
             }
         };
+        let (Ok(raw_start), Ok(raw_end)) = (
+            real("Event Start Raw Time [ms]"),
+            real("Event End Raw Time [ms]"),
+        ) else {
+            continue;
+        };
         let (Ok(fx), Ok(fy), Ok(sx), Ok(sy), Ok(ex), Ok(ey), Ok(dx), Ok(dy), Ok(pupil)) = (
             real("Fixation Position X [px]"),
             real("Fixation Position Y [px]"),
@@ -164,13 +170,28 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
                     .ok()
             })
             .unwrap_or(1);
+        let participant = participant_c
+            .map(|c| f[c].1.trim().to_string())
+            .filter(|p| !is_missing(p));
         if header.subject.is_none() {
-            header.subject = participant_c
-                .map(|c| f[c].1.trim().to_string())
-                .filter(|p| !is_missing(p));
+            header.subject = participant.clone();
         }
+        // The tracker clock, when the export has the raw times: the stimulus onset is where
+        // the trial time is zero on that clock.
+        let (start_us, end_us, stimulus_onset_us) = match (raw_start, raw_end) {
+            (Some(rs), Some(re)) => (
+                (rs * 1000.0).round() as i64,
+                (re * 1000.0).round() as i64,
+                Some(((rs - start_ms) * 1000.0).round() as i64),
+            ),
+            _ => (
+                (start_ms * 1000.0).round() as i64,
+                (end_ms * 1000.0).round() as i64,
+                None,
+            ),
+        };
         let n = number_per_stream
-            .entry((trial, eye, kind as u8))
+            .entry((participant.clone(), trial, eye, kind as u8))
             .or_insert(0u64);
         *n += 1;
         let (x, y) = if kind == EventKind::Saccade {
@@ -183,8 +204,8 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             eye,
             trial,
             number: *n,
-            start_us: (start_ms * 1000.0).round() as i64,
-            end_us: (end_ms * 1000.0).round() as i64,
+            start_us,
+            end_us,
             duration_us: (duration_ms * 1000.0).round() as i64,
             x,
             y,
@@ -197,13 +218,38 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             stimulus: stimulus_c
                 .map(|c| f[c].1.trim().to_string())
                 .filter(|s| !is_missing(s)),
+            stimulus_onset_us,
+            participant,
         });
         rows.events += 1;
     }
-    events.sort_by_key(|e| (e.trial, e.start_us, e.eye, e.number));
-    let mut notes = vec![
-        "event times are milliseconds from each trial's start (not the tracker clock)".to_string(),
-    ];
+    events.sort_by(|a, b| {
+        (&a.participant, a.trial, a.start_us, a.eye, a.number).cmp(&(
+            &b.participant,
+            b.trial,
+            b.start_us,
+            b.eye,
+            b.number,
+        ))
+    });
+    let raw_clock = events.iter().any(|e| e.stimulus_onset_us.is_some());
+    let mut notes = vec![if raw_clock {
+        "event times from the `Event Start/End Raw Time [ms]` columns (the tracker clock)"
+            .to_string()
+    } else {
+        "event times are milliseconds from each trial's start (not the tracker clock)".to_string()
+    }];
+    let participants: std::collections::BTreeSet<&str> = events
+        .iter()
+        .filter_map(|e| e.participant.as_deref())
+        .collect();
+    if participants.len() > 1 {
+        notes.push(format!(
+            "{} participants in one file ({}): each is its own subject",
+            participants.len(),
+            participants.iter().copied().collect::<Vec<_>>().join(", ")
+        ));
+    }
     if sep != Separator::Tab {
         notes.push(format!("fields separated by {sep:?}"));
     }

@@ -139,9 +139,11 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         let eye = match eye.trim() {
             "L" => Eye::Left,
             "R" => Eye::Right,
+            // BeGaze 3.6 writes binocular events (`Fixation B`).
+            "B" => Eye::Binocular,
             other => {
                 rows.reject(
-                    &format!("unknown eye `{other}` (expected L or R)"),
+                    &format!("unknown eye `{other}` (expected L, R or B)"),
                     no,
                     1,
                     line,
@@ -214,6 +216,8 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             pupil_x,
             pupil_y,
             stimulus: None,
+            stimulus_onset_us: None,
+            participant: None,
         });
         rows.events += 1;
     }

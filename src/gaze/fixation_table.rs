@@ -7,6 +7,7 @@ use serde::{Deserialize, Serialize};
 
 use super::fixations::Fixation;
 
+/// Columns every fixations.csv has; `invalid_reason` follows (absent in older files).
 pub const HEADER: [&str; 13] = [
     "subject",
     "stimulus",
@@ -21,6 +22,24 @@ pub const HEADER: [&str; 13] = [
     "pupil",
     "onset_offset_us",
     "fate",
+];
+
+/// The columns written: [`HEADER`] and the reason for an `invalid` fate.
+pub const WRITTEN: [&str; 14] = [
+    "subject",
+    "stimulus",
+    "eye",
+    "trial",
+    "start_us",
+    "end_us",
+    "duration_ms",
+    "x_px",
+    "y_px",
+    "dispersion_px",
+    "pupil",
+    "onset_offset_us",
+    "fate",
+    "invalid_reason",
 ];
 
 /// One row of `fixations.csv`, as read back.
@@ -40,6 +59,9 @@ pub struct FixationRow {
     /// Start of the fixation after its stimulus onset message, µs.
     pub onset_offset_us: Option<i64>,
     pub fate: String,
+    /// Why the fate is `invalid` (empty otherwise).
+    #[serde(default)]
+    pub invalid_reason: String,
 }
 
 impl From<&Fixation> for FixationRow {
@@ -58,6 +80,7 @@ impl From<&Fixation> for FixationRow {
             pupil: f.pupil,
             onset_offset_us: f.onset_offset_us,
             fate: f.fate.name().to_string(),
+            invalid_reason: f.invalid_reason.unwrap_or("").to_string(),
         }
     }
 }
@@ -67,7 +90,7 @@ pub fn write_fixations_csv<W: Write>(out: W, rows: &[FixationRow]) -> Result<(),
     let mut w = csv::WriterBuilder::new()
         .has_headers(false)
         .from_writer(out);
-    w.write_record(HEADER).map_err(|e| e.to_string())?;
+    w.write_record(WRITTEN).map_err(|e| e.to_string())?;
     for r in rows {
         w.serialize(r).map_err(|e| e.to_string())?;
     }
@@ -137,6 +160,7 @@ mod tests {
             pupil: Some(4.25),
             onset_offset_us: Some(1_000_000),
             fate: "kept".into(),
+            invalid_reason: String::new(),
         }
     }
 

@@ -5,6 +5,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::model::{EventKind, Eye, EyeSample, Recording, Sample};
+use super::stimulus_messages::{
+    classify_messages, place, stimulus_segments, Placement, Segmentation, StimulusSegment,
+};
 
 /// Which eye's gaze a fixation is computed from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -93,6 +96,8 @@ pub struct Fixation {
     pub fate: Fate,
     /// Microsecond offset of the fixation's start from its stimulus onset message.
     pub onset_offset_us: Option<i64>,
+    /// Why the fate is `invalid`.
+    pub invalid_reason: Option<&'static str>,
 }
 
 fn eye_name(e: Eye) -> &'static str {
@@ -149,6 +154,10 @@ pub fn resolve_policy(rec: &Recording, policy: EyePolicy) -> EyePolicy {
 struct Raw {
     /// The stimulus the export itself names (format B), which then wins over messages.
     stimulus: Option<String>,
+    /// That stimulus's onset on the event clock (None: times count from the onset).
+    stimulus_onset_us: Option<i64>,
+    /// The participant the export names (format B), which then wins over the subject.
+    participant: Option<String>,
     trial: u32,
     start_us: i64,
     end_us: i64,
@@ -179,6 +188,8 @@ fn summarize(points: &[(i64, EyeSample)], trial: u32, sample_us: i64) -> Raw {
     }
     Raw {
         stimulus: None,
+        stimulus_onset_us: None,
+        participant: None,
         trial,
         start_us: points[0].0,
         // A sample stands for the interval up to the next one.
@@ -310,34 +321,50 @@ fn detect_ivt(rec: &Recording, policy: EyePolicy, p: &DetectorParams) -> Vec<Raw
     out
 }
 
-/// The stimulus shown at `t`: the text of the latest message at or before it in the same
-/// trial (user events `UE-…` are not stimuli), and that message's time. Before any message:
-/// `trialN` when the recording has several trials (each recording restart is a trial), else
-/// `recording`.
-fn stimulus_at(rec: &Recording, trial: u32, t: i64) -> (String, Option<i64>) {
+/// The name of a stretch of recording that no stimulus message covers: `trialN` when the
+/// recording has several trials (each recording restart is a trial), else `recording`.
+fn unnamed_stimulus(rec: &Recording, trial: u32) -> String {
     let several_trials = rec
         .samples
         .iter()
         .map(|s| s.trial)
         .chain(rec.events.iter().map(|e| e.trial))
         .any(|tr| tr != trial);
-    rec.messages
-        .iter()
-        .filter(|m| m.trial == trial && m.time_us <= t && !m.text.starts_with("UE-"))
-        .max_by_key(|m| m.time_us)
-        .map_or_else(
-            || {
-                (
-                    if several_trials {
-                        format!("trial{trial}")
-                    } else {
-                        "recording".to_string()
-                    },
-                    None,
-                )
-            },
-            |m| (m.text.clone(), Some(m.time_us)),
-        )
+    if several_trials {
+        format!("trial{trial}")
+    } else {
+        "recording".to_string()
+    }
+}
+
+/// Why a fixation is invalid from where it falls among the stimuli, or None when it falls
+/// inside one: (stimulus, onset, reason).
+fn stimulus_of(
+    rec: &Recording,
+    segments: &[StimulusSegment],
+    trial: u32,
+    t: i64,
+) -> (String, Option<i64>, Option<&'static str>) {
+    if !segments.iter().any(|s| s.trial == trial) {
+        return (unnamed_stimulus(rec, trial), None, None);
+    }
+    match place(segments, trial, t) {
+        Placement::Inside(s) => (s.name.clone(), Some(s.onset_us), None),
+        Placement::AfterEnd(s) => (
+            s.name.clone(),
+            Some(s.onset_us),
+            Some(if s.ended_by == "duration" {
+                "after the stimulus ended (the protocol's stimulus length)"
+            } else {
+                "after the stimulus ended (end message)"
+            }),
+        ),
+        Placement::BeforeFirstOnset => (
+            String::new(),
+            None,
+            Some("before the first stimulus onset of its trial"),
+        ),
+    }
 }
 
 /// All fixations of a recording, before filtering (fate Kept or Invalid).
@@ -347,8 +374,10 @@ pub fn fixations(
     detector: Detector,
     policy: EyePolicy,
     params: &DetectorParams,
+    segmentation: &Segmentation,
 ) -> Result<Vec<Fixation>, String> {
     let policy = resolve_policy(rec, policy);
+    let segments = stimulus_segments(&classify_messages(rec, segmentation), segmentation);
     let (raw, eye): (Vec<Raw>, &'static str) = match detector {
         Detector::Events => {
             if rec.events.is_empty() {
@@ -378,6 +407,8 @@ pub fn fixations(
                 .filter(|e| e.kind == EventKind::Fixation && e.eye == want)
                 .map(|e| Raw {
                     stimulus: e.stimulus.clone(),
+                    stimulus_onset_us: e.stimulus_onset_us,
+                    participant: e.participant.clone(),
                     trial: e.trial,
                     start_us: e.start_us,
                     end_us: e.end_us,
@@ -417,15 +448,29 @@ pub fn fixations(
         .into_iter()
         .map(|r| {
             // Format B times count from the trial's (stimulus's) start: the offset is the time.
-            let (stimulus, onset) = match &r.stimulus {
-                Some(s) => (s.clone(), Some(0)),
-                None => stimulus_at(rec, r.trial, r.start_us),
+            let (stimulus, onset, outside) = match &r.stimulus {
+                Some(s) => {
+                    let onset = r.stimulus_onset_us.unwrap_or(0);
+                    let late = segmentation
+                        .max_duration_us
+                        .is_some_and(|d| r.start_us - onset >= d)
+                        .then_some("after the stimulus ended (the protocol's stimulus length)");
+                    (s.clone(), Some(onset), late)
+                }
+                None => stimulus_of(rec, &segments, r.trial, r.start_us),
             };
             let on_screen = r.x.is_finite()
                 && r.y.is_finite()
                 && area.is_none_or(|[w, h]| (0.0..=w).contains(&r.x) && (0.0..=h).contains(&r.y));
+            let invalid_reason = outside.or((!on_screen).then_some(
+                if r.x.is_finite() && r.y.is_finite() {
+                    "off the calibrated screen"
+                } else {
+                    "no gaze position"
+                },
+            ));
             Fixation {
-                subject: subject.to_string(),
+                subject: r.participant.clone().unwrap_or_else(|| subject.to_string()),
                 stimulus,
                 eye,
                 trial: r.trial,
@@ -436,7 +481,12 @@ pub fn fixations(
                 y_px: r.y,
                 dispersion_px: r.dispersion,
                 pupil: r.pupil,
-                fate: if on_screen { Fate::Kept } else { Fate::Invalid },
+                fate: if invalid_reason.is_none() {
+                    Fate::Kept
+                } else {
+                    Fate::Invalid
+                },
+                invalid_reason,
                 onset_offset_us: onset.map(|o| r.start_us - o),
             }
         })

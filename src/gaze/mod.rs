@@ -7,8 +7,10 @@ pub mod event_tables;
 pub mod fixation_table;
 pub mod fixations;
 pub mod idf_samples;
+pub mod ingest;
 pub mod model;
 pub mod quality;
+pub mod stimulus_messages;
 pub mod text;
 pub mod writers;
 

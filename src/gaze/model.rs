@@ -107,6 +107,11 @@ pub struct Event {
     pub pupil_y: Option<f64>,
     /// The stimulus the export names for this event (format B), when it does.
     pub stimulus: Option<String>,
+    /// The stimulus's onset on the same clock as `start_us`, when the export gives it (format
+    /// B with raw times); None with `stimulus`: times count from the stimulus onset.
+    pub stimulus_onset_us: Option<i64>,
+    /// The participant the export names for this event (format B files may hold several).
+    pub participant: Option<String>,
 }
 
 /// Header facts meshgaze uses; every raw `key: value` line is kept too.

@@ -380,6 +380,8 @@ fn simulate_one(
             pupil_x: None,
             pupil_y: None,
             stimulus: None,
+            stimulus_onset_us: None,
+            participant: None,
         });
     };
     let mut index = 0;

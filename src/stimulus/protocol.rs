@@ -201,6 +201,13 @@ pub struct FixationRules {
     /// converted to pixels with the display's size and mean viewing distance.
     #[serde(default = "default_velocity")]
     pub ivt_max_velocity_deg_s: f64,
+    /// A regular expression with one capture group, the stimulus name, for the messages that
+    /// start a stimulus (None: messages naming an image or video file).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stimulus_pattern: Option<String>,
+    /// A regular expression for messages that end the running stimulus.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stimulus_end_pattern: Option<String>,
 }
 
 fn default_dispersion() -> f64 {
@@ -277,6 +284,21 @@ impl Protocol {
     }
 
     pub fn validate(&self) -> Result<(), String> {
+        for (key, pattern) in [
+            ("stimulus_pattern", &self.fixations.stimulus_pattern),
+            ("stimulus_end_pattern", &self.fixations.stimulus_end_pattern),
+        ] {
+            if let Some(p) = pattern {
+                let re = regex::Regex::new(p).map_err(|e| {
+                    format!("[fixations] {key} `{p}` is not a regular expression: {e}")
+                })?;
+                if key == "stimulus_pattern" && re.captures_len() != 2 {
+                    return Err(format!(
+                        "[fixations] stimulus_pattern `{p}` needs exactly one capture group, around the stimulus name"
+                    ));
+                }
+            }
+        }
         let positive = |v: f64, what: &str| -> Result<(), String> {
             if v > 0.0 && v.is_finite() {
                 Ok(())

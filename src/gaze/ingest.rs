@@ -1,0 +1,287 @@
+//! Ingest: from SMI export files to filtered fixations, classified messages and data quality,
+//! one file at a time, with the checks that need several files (one source per subject and
+//! stimulus). The writers put each table on disk as `meshgaze ingest` does.
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use super::fixations::{
+    apply_protocol_filter, fixations, Detector, DetectorParams, EyePolicy, Fate, Fixation,
+};
+use super::model::{EyeSample, Recording, SmiFormat};
+use super::quality::{quality, QualityRow};
+use super::read_smi;
+use super::stimulus_messages::{classify_messages, ClassifiedMessage, Segmentation};
+
+/// The protocol's fixation filter (paper §4: drop the first and last two, keep the 15 longest).
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct FilterRules {
+    pub drop_first: usize,
+    pub drop_last: usize,
+    pub keep_longest: usize,
+}
+
+/// Everything that decides how a file becomes fixations.
+#[derive(Debug, Clone)]
+pub struct IngestParams {
+    /// Force a format instead of detecting it.
+    pub format: Option<SmiFormat>,
+    /// None: the exporter's events when the file has events and no samples, else I-DT.
+    pub detector: Option<Detector>,
+    pub eye: EyePolicy,
+    /// Overrides the subject the file names.
+    pub subject: Option<String>,
+    pub detector_params: DetectorParams,
+    pub filter: FilterRules,
+    pub segmentation: Segmentation,
+}
+
+/// One file, ingested.
+pub struct IngestedFile {
+    pub path: PathBuf,
+    pub recording: Recording,
+    /// The file's subject (format B files naming several participants give each fixation
+    /// its own).
+    pub subject: String,
+    pub detector: Detector,
+    pub fixations: Vec<Fixation>,
+    pub quality: Vec<QualityRow>,
+    pub messages: Vec<ClassifiedMessage>,
+    /// Things a user should know that do not stop the file (printed by the CLI).
+    pub warnings: Vec<String>,
+}
+
+/// The detector a file gets when none is asked for.
+pub fn default_detector(rec: &Recording) -> Detector {
+    if !rec.events.is_empty() && (rec.samples.is_empty() || rec.format == SmiFormat::EventTables) {
+        Detector::Events
+    } else {
+        Detector::IDt
+    }
+}
+
+/// Fails when a sample detector would see no gaze position at all: every sample's point of
+/// regard is 0.00 (exports of pupil and corneal reflex only).
+fn check_gaze_present(rec: &Recording, path: &Path) -> Result<(), String> {
+    let has_position = |e: &Option<EyeSample>| e.is_some_and(|e| e.x != 0.0 || e.y != 0.0);
+    let with_position = rec
+        .samples
+        .iter()
+        .filter(|s| has_position(&s.left) || has_position(&s.right) || has_position(&s.binocular))
+        .count();
+    if !rec.samples.is_empty() && with_position == 0 {
+        return Err(format!(
+            "{}: the point of regard (POR X/Y) is 0.00 in all {} samples, so this export carries no gaze position (only pupil and corneal reflex data); no fixation can be found in it. Re-export the recording from BeGaze or IDF Converter with the POR columns selected (Format: POR), or give the exporter's fixation events instead",
+            path.display(),
+            rec.samples.len()
+        ));
+    }
+    Ok(())
+}
+
+/// Reads one export, finds its fixations, applies the protocol's filter and measures quality.
+pub fn ingest_file(path: &Path, params: &IngestParams) -> Result<IngestedFile, String> {
+    let rec = read_smi(path, params.format).map_err(|e| e.to_string())?;
+    let subject = params
+        .subject
+        .clone()
+        .or_else(|| rec.header.subject.clone())
+        .unwrap_or_else(|| {
+            path.file_stem()
+                .unwrap_or_default()
+                .to_string_lossy()
+                .to_string()
+        });
+    let detector = params.detector.unwrap_or_else(|| default_detector(&rec));
+    let mut warnings = Vec::new();
+    if detector != Detector::Events {
+        check_gaze_present(&rec, path)?;
+        if let (Some(rate), Detector::IVt) = (rec.header.sample_rate_hz, detector) {
+            if rate < 200.0 {
+                warnings.push(format!(
+                    "{}: I-VT at {rate} Hz: velocity detection needs 200 Hz or more",
+                    path.display()
+                ));
+            }
+        }
+        let interval_ms = super::fixations::sample_interval_us(&rec) as f64 / 1000.0;
+        if !rec.samples.is_empty() && params.detector_params.min_duration_ms < interval_ms {
+            warnings.push(format!(
+                "{}: the minimum fixation duration {} ms is shorter than one sample ({interval_ms:.1} ms)",
+                path.display(),
+                params.detector_params.min_duration_ms
+            ));
+        }
+    }
+    let mut fx = fixations(
+        &rec,
+        &subject,
+        detector,
+        params.eye,
+        &params.detector_params,
+        &params.segmentation,
+    )?;
+    let rules = params.filter;
+    apply_protocol_filter(
+        &mut fx,
+        rules.drop_first,
+        rules.drop_last,
+        rules.keep_longest,
+    );
+    let quality = quality(&rec, &subject, &fx, params.eye);
+    let messages = classify_messages(&rec, &params.segmentation);
+    Ok(IngestedFile {
+        path: path.to_path_buf(),
+        recording: rec,
+        subject,
+        detector,
+        fixations: fx,
+        quality,
+        messages,
+        warnings,
+    })
+}
+
+/// Refuses two files that are one recording (a stimulus onset at the same tracker time in
+/// both: a sample export and an event export of it) or that give the same subject fixations
+/// on the same stimulus: either would count that subject's fixations twice.
+pub fn check_one_source_per_subject(files: &[IngestedFile]) -> Result<(), String> {
+    let mut onsets: BTreeMap<(&str, i64), &Path> = BTreeMap::new();
+    for f in files {
+        for m in &f.messages {
+            let Some(name) = m.stimulus.as_deref() else {
+                continue;
+            };
+            if let Some(other) = onsets.insert((name, m.time_us), &f.path) {
+                if other != f.path {
+                    return Err(format!(
+                        "{} and {} are one recording (both show `{name}` at tracker time {} µs): ingesting both would count its fixations twice (a sample export and an event export?). Give one of them",
+                        other.display(),
+                        f.path.display(),
+                        m.time_us
+                    ));
+                }
+            }
+        }
+    }
+    let mut seen: BTreeMap<(&str, &str), &Path> = BTreeMap::new();
+    for f in files {
+        let mut pairs: Vec<(&str, &str)> = f
+            .fixations
+            .iter()
+            .filter(|x| x.fate != Fate::Invalid)
+            .map(|x| (x.subject.as_str(), x.stimulus.as_str()))
+            .collect();
+        pairs.sort();
+        pairs.dedup();
+        for key in pairs {
+            if let Some(other) = seen.insert(key, &f.path) {
+                if other != f.path {
+                    return Err(format!(
+                        "{} and {} both hold subject `{}` watching `{}`: ingesting both would count that subject's fixations twice (a sample export and an event export of one recording?). Give one file per subject and stimulus, or --subject to tell them apart",
+                        other.display(),
+                        f.path.display(),
+                        key.0,
+                        if key.1.is_empty() { "(no stimulus)" } else { key.1 }
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
+fn opt(v: Option<f64>) -> String {
+    v.map_or(String::new(), |x| format!("{x}"))
+}
+
+/// quality.csv: one row per subject and stimulus.
+pub fn write_quality_csv(out: &mut impl Write, rows: &[QualityRow]) -> std::io::Result<()> {
+    writeln!(out, "subject,stimulus,samples,lost_samples,lost_ms,loss_ratio,declared_rate_hz,measured_rate_hz,precision_rms_px,kept,dropped_first,dropped_last,not_longest,invalid")?;
+    for r in rows {
+        let n = |k: &str| r.fixations_by_fate.get(k).copied().unwrap_or(0);
+        writeln!(
+            out,
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}",
+            r.subject,
+            r.stimulus.replace(',', ";"),
+            r.samples,
+            r.lost_samples,
+            r.lost_ms,
+            r.loss_ratio,
+            opt(r.declared_rate_hz),
+            opt(r.measured_rate_hz),
+            opt(r.precision_rms_px),
+            n(Fate::Kept.name()),
+            n(Fate::DroppedFirst.name()),
+            n(Fate::DroppedLast.name()),
+            n(Fate::NotLongest.name()),
+            n(Fate::Invalid.name())
+        )?;
+    }
+    Ok(())
+}
+
+/// The header of samples.csv.
+pub const SAMPLES_CSV_HEADER: &str = "subject,time_us,trial,left_x,left_y,left_pupil,left_valid,right_x,right_y,right_pupil,right_valid";
+
+/// Every sample of a recording, one row each, under [`SAMPLES_CSV_HEADER`].
+pub fn write_samples_rows(
+    out: &mut impl Write,
+    subject: &str,
+    rec: &Recording,
+) -> std::io::Result<()> {
+    let eye = |e: Option<EyeSample>| {
+        e.map_or(",,,".to_string(), |e| {
+            format!("{},{},{},{}", e.x, e.y, opt(e.pupil), e.valid as u8)
+        })
+    };
+    for s in &rec.samples {
+        writeln!(
+            out,
+            "{subject},{},{},{},{}",
+            s.time_us,
+            s.trial,
+            eye(s.left),
+            eye(s.right)
+        )?;
+    }
+    Ok(())
+}
+
+/// messages.csv: every message of every file with its kind (RFC 4180 quoting: messages hold
+/// commas and quotes).
+pub fn write_messages_csv(out: impl Write, files: &[IngestedFile]) -> Result<(), String> {
+    let mut w = csv::Writer::from_writer(out);
+    w.write_record([
+        "file", "subject", "trial", "time_us", "kind", "stimulus", "text",
+    ])
+    .map_err(|e| e.to_string())?;
+    for f in files {
+        let file = f.path.display().to_string();
+        for m in &f.messages {
+            w.write_record([
+                file.as_str(),
+                f.subject.as_str(),
+                &m.trial.to_string(),
+                &m.time_us.to_string(),
+                m.kind.name(),
+                m.stimulus.as_deref().unwrap_or(""),
+                m.text.as_str(),
+            ])
+            .map_err(|e| e.to_string())?;
+        }
+    }
+    w.flush().map_err(|e| e.to_string())
+}
+
+/// Messages per kind, for ingest.json.
+pub fn message_kind_counts(messages: &[ClassifiedMessage]) -> BTreeMap<&'static str, usize> {
+    let mut counts = BTreeMap::new();
+    for m in messages {
+        *counts.entry(m.kind.name()).or_insert(0) += 1;
+    }
+    counts
+}
