@@ -4,6 +4,7 @@
 //! watertight triangle test, and the hit triangle's nearest corner.
 //!
 //! Every fixation ends with exactly one [`ProjectionFate`]; nothing is dropped.
+pub mod project_file;
 pub mod ray_caster;
 pub mod self_check;
 pub mod table;

@@ -1,0 +1,333 @@
+//! Projecting one stimulus's fixations from fixations.csv files onto its mesh: pick the
+//! stimulus, turn rows into screen fixations, cast them, check them, and write projected.csv,
+//! cone.csv and project.json.
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use serde::Serialize;
+
+use super::self_check::{self_check, SelfCheck};
+use super::table::{write_projected_csv, ProjectedRow};
+use super::{
+    count_fates, project_fixations, Cone, ProjectedFixation, ProjectionParams, RayCaster,
+    ScreenFixation, ScreenMapping,
+};
+use crate::gaze::fixation_table::{read_fixations_csv, FixationRow};
+use crate::progress::Progress;
+use crate::provenance::{InputFile, Provenance};
+use crate::simulate::{read_targets_csv, round_trip, RoundTrip};
+use crate::stimulus::load::LoadedStimulus;
+use crate::stimulus::protocol::DuringMove;
+
+/// `WIDTHxHEIGHT` in pixels.
+pub fn parse_screen(s: &str) -> Result<(f64, f64)> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .context("--screen: expected WIDTHxHEIGHT, e.g. 1920x1080")?;
+    let (w, h): (f64, f64) = (
+        w.trim()
+            .parse()
+            .context("--screen: width is not a number")?,
+        h.trim()
+            .parse()
+            .context("--screen: height is not a number")?,
+    );
+    if !(w > 0.0 && h > 0.0) {
+        bail!("--screen: width and height must be positive");
+    }
+    Ok((w, h))
+}
+
+/// Picks the stimulus whose fixations to project.
+pub fn choose_stimulus(
+    rows: &[FixationRow],
+    explicit: Option<&str>,
+    mesh_stem: &str,
+) -> Result<String> {
+    let mut names: Vec<&str> = rows.iter().map(|r| r.stimulus.as_str()).collect();
+    names.sort_unstable();
+    names.dedup();
+    if let Some(e) = explicit {
+        if !names.contains(&e) {
+            bail!(
+                "no fixation has stimulus `{e}`; the files have: {}",
+                names.join(", ")
+            );
+        }
+        return Ok(e.to_string());
+    }
+    let stem = |n: &str| {
+        n.rsplit(['/', '\\'])
+            .next()
+            .unwrap_or(n)
+            .split('.')
+            .next()
+            .unwrap_or(n)
+            .to_string()
+    };
+    let like_mesh: Vec<&&str> = names.iter().filter(|n| stem(n) == mesh_stem).collect();
+    if like_mesh.len() == 1 {
+        return Ok(like_mesh[0].to_string());
+    }
+    let with_onset: Vec<&&str> = names
+        .iter()
+        .filter(|n| {
+            rows.iter()
+                .any(|r| r.stimulus == **n && r.onset_offset_us.is_some())
+        })
+        .collect();
+    if with_onset.len() == 1 {
+        return Ok(with_onset[0].to_string());
+    }
+    bail!(
+        "cannot tell which stimulus shows this mesh ({mesh_stem}); pass --stimulus-name, one of: {}",
+        names.join(", ")
+    )
+}
+
+/// The rows of stimulus `name` as screen fixations, in subject then time order, numbered per
+/// subject; `onset_us` overrides the rows' onset offsets.
+pub fn screen_fixations(
+    rows: &[FixationRow],
+    name: &str,
+    onset_us: Option<i64>,
+) -> Result<Vec<ScreenFixation>> {
+    let mut chosen: Vec<&FixationRow> = rows.iter().filter(|r| r.stimulus == name).collect();
+    chosen.sort_by(|a, b| a.subject.cmp(&b.subject).then(a.start_us.cmp(&b.start_us)));
+    let mut fixations = Vec::with_capacity(chosen.len());
+    let mut index: BTreeMap<&str, usize> = BTreeMap::new();
+    for r in &chosen {
+        let offset_us = match (r.onset_offset_us, onset_us) {
+            (_, Some(onset)) => r.start_us - onset,
+            (Some(o), None) => o,
+            (None, None) => bail!(
+                "subject {}: fixations of `{name}` have no onset time (no stimulus message in the recording); pass --onset-us with the tracker time of the video's first frame",
+                r.subject
+            ),
+        };
+        let k = index.entry(r.subject.as_str()).or_insert(0);
+        fixations.push(ScreenFixation {
+            subject: r.subject.clone(),
+            index: *k,
+            start_ms: offset_us as f64 / 1000.0,
+            duration_ms: r.duration_ms,
+            x_px: r.x_px,
+            y_px: r.y_px,
+            kept: r.fate == "kept",
+            invalid: r.fate == "invalid",
+        });
+        *k += 1;
+    }
+    Ok(fixations)
+}
+
+/// How fixations are projected (None: the protocol's).
+#[derive(Debug, Clone, Default)]
+pub struct ProjectOptions {
+    /// The stimulus name in the fixation files (None: the one named like the mesh, or the
+    /// only one with an onset).
+    pub stimulus_name: Option<String>,
+    pub onset_us: Option<i64>,
+    /// The tracker's screen in pixels (None: the protocol's display).
+    pub screen: Option<(f64, f64)>,
+    pub during_move: Option<DuringMove>,
+    /// Snap radius in degrees.
+    pub snap_deg: Option<f64>,
+    /// Gaussian cone half-angle in degrees.
+    pub cone_deg: Option<f64>,
+    /// targets.csv of simulated observers, for the round-trip check.
+    pub targets: Option<PathBuf>,
+    pub self_check: bool,
+}
+
+/// project.json.
+#[derive(Serialize)]
+pub struct ProjectSidecar {
+    pub provenance: Provenance,
+    pub manifest_sha256: String,
+    pub mesh_sha256: String,
+    pub stimulus_name: String,
+    pub mapping: ScreenMapping,
+    pub parameters: ProjectionParams,
+    pub pixels_per_degree: f64,
+    pub rows_of_other_stimuli: usize,
+    pub fates: BTreeMap<String, BTreeMap<&'static str, usize>>,
+    pub totals: BTreeMap<&'static str, usize>,
+    pub self_check: Option<SelfCheck>,
+    pub round_trip: Option<RoundTrip>,
+}
+
+/// What a projection produced.
+pub struct ProjectionRun {
+    pub projected: Vec<ProjectedFixation>,
+    pub rows: Vec<ProjectedRow>,
+    pub sidecar: ProjectSidecar,
+}
+
+/// Reads fixations.csv files and projects the chosen stimulus's fixations onto `stim`.
+pub fn project_files(
+    stim: &LoadedStimulus,
+    fixation_files: &[PathBuf],
+    options: &ProjectOptions,
+    progress: &dyn Progress,
+) -> Result<ProjectionRun> {
+    let mut inputs = vec![
+        InputFile::hash(&stim.manifest_path)?,
+        InputFile::hash(&stim.mesh_path)?,
+    ];
+    let mut rows = Vec::new();
+    for f in fixation_files {
+        rows.extend(read_fixations_csv(f).map_err(anyhow::Error::msg)?);
+        inputs.push(InputFile::hash(f)?);
+    }
+    let name = choose_stimulus(&rows, options.stimulus_name.as_deref(), &stim.mesh_stem())?;
+    let others = rows.iter().filter(|r| r.stimulus != name).count();
+    let fixations = screen_fixations(&rows, &name, options.onset_us)?;
+    let mut run = project_screen_fixations(stim, &fixations, options, progress)?;
+    if let Some(t) = &options.targets {
+        inputs.push(InputFile::hash(t)?);
+    }
+    run.sidecar.provenance = Provenance::new(inputs);
+    run.sidecar.stimulus_name = name;
+    run.sidecar.rows_of_other_stimuli = others;
+    Ok(run)
+}
+
+/// Projects screen fixations onto `stim` (provenance and stimulus name left for the caller).
+pub fn project_screen_fixations(
+    stim: &LoadedStimulus,
+    fixations: &[ScreenFixation],
+    options: &ProjectOptions,
+    progress: &dyn Progress,
+) -> Result<ProjectionRun> {
+    let protocol = &stim.protocol;
+    let (sw, sh) = options.screen.unwrap_or((
+        protocol.display.width_px as f64,
+        protocol.display.height_px as f64,
+    ));
+    let mapping = ScreenMapping {
+        screen_width_px: sw,
+        screen_height_px: sh,
+        video_width_px: stim.video_width,
+        video_height_px: stim.video_height,
+    };
+    // Degrees to tracker-screen pixels: the protocol's display geometry, rescaled if the
+    // tracker reports another resolution for the same panel.
+    let ppd = protocol.display.pixels_per_degree() * sw / protocol.display.width_px as f64;
+    if let Some(d) = options.snap_deg {
+        if !(d > 0.0 && d <= 5.0) {
+            bail!("--snap-deg must be in (0, 5] degrees");
+        }
+    }
+    if let Some(c) = options.cone_deg {
+        if !(c > 0.0 && c <= 10.0) {
+            bail!("--cone-deg must be in (0, 10] degrees");
+        }
+    }
+    let params = ProjectionParams {
+        during_move: options
+            .during_move
+            .unwrap_or(protocol.fixations.during_move),
+        snap_radius_px: options.snap_deg.map(|d| d * ppd),
+        cone: options.cone_deg.map(|d| Cone {
+            radius_px: d * ppd,
+            sigma_px: 0.5 * d * ppd,
+            rays_per_radius: 8,
+        }),
+        fps: stim.fps,
+    };
+    progress.start("building the BVH", 0);
+    let caster = RayCaster::new(&stim.mesh);
+    progress.finish();
+    progress.start("projecting fixations", 0);
+    let projected = project_fixations(&stim.plan, &caster, &mapping, fixations, &params);
+    progress.finish();
+    let check = options.self_check.then(|| {
+        progress.start("self-check (id buffer)", 0);
+        let c = self_check(&stim.plan, &caster, &mapping, &projected);
+        progress.finish();
+        c
+    });
+    let rows: Vec<ProjectedRow> = projected.iter().map(ProjectedRow::from).collect();
+    let round_trip = match &options.targets {
+        Some(t) => {
+            let targets = read_targets_csv(t).map_err(anyhow::Error::msg)?;
+            Some(round_trip(&stim.mesh, &stim.plan, ppd, &targets, &rows))
+        }
+        None => None,
+    };
+    let mut fates: BTreeMap<String, BTreeMap<&'static str, usize>> = BTreeMap::new();
+    for p in &projected {
+        fates.entry(p.subject.clone()).or_default();
+    }
+    for (s, c) in fates.iter_mut() {
+        *c = count_fates(
+            projected
+                .iter()
+                .filter(|p| &p.subject == s)
+                .map(|p| &p.fate),
+        )
+        .into_iter()
+        .map(|(f, n)| (f.name(), n))
+        .collect();
+    }
+    let totals = count_fates(projected.iter().map(|p| &p.fate))
+        .into_iter()
+        .map(|(f, n)| (f.name(), n))
+        .collect();
+    let sidecar = ProjectSidecar {
+        provenance: Provenance::new(Vec::new()),
+        manifest_sha256: stim.manifest_sha256.clone(),
+        mesh_sha256: stim.mesh_sha256.clone(),
+        stimulus_name: String::new(),
+        mapping,
+        parameters: params,
+        pixels_per_degree: ppd,
+        rows_of_other_stimuli: 0,
+        fates,
+        totals,
+        self_check: check,
+        round_trip,
+    };
+    Ok(ProjectionRun {
+        projected,
+        rows,
+        sidecar,
+    })
+}
+
+/// Writes projected.csv, cone.csv (with a cone) and project.json into `out`.
+pub fn write_projection(out: &Path, run: &ProjectionRun) -> Result<()> {
+    crate::file_bytes::create_output_dir(out)?;
+    let pp = out.join("projected.csv");
+    write_projected_csv(
+        std::io::BufWriter::new(
+            std::fs::File::create(&pp)
+                .with_context(|| format!("cannot create {}", pp.display()))?,
+        ),
+        &run.rows,
+    )
+    .map_err(anyhow::Error::msg)?;
+    if run.sidecar.parameters.cone.is_some() {
+        let cp = out.join("cone.csv");
+        let mut w = csv::Writer::from_path(&cp)
+            .with_context(|| format!("cannot create {}", cp.display()))?;
+        w.write_record(["subject", "fixation", "vertex", "weight"])?;
+        for p in &run.projected {
+            for (v, wt) in &p.footprint {
+                w.write_record([
+                    p.subject.clone(),
+                    p.index.to_string(),
+                    v.to_string(),
+                    format!("{wt}"),
+                ])?;
+            }
+        }
+        w.flush()?;
+    }
+    let jp = out.join("project.json");
+    std::fs::write(&jp, serde_json::to_string_pretty(&run.sidecar)? + "\n")
+        .with_context(|| format!("cannot write {}", jp.display()))?;
+    Ok(())
+}
