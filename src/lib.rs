@@ -19,4 +19,5 @@ pub mod saliency;
 pub mod scoring;
 pub mod simulate;
 pub mod stimulus;
+pub mod study;
 pub mod truth;

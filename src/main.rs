@@ -29,6 +29,7 @@ enum Command {
     Demo(cli::demo::DemoArgs),
     Bench(cli::bench::BenchArgs),
     Protocol(cli::protocol::ProtocolArgs),
+    Study(cli::study::StudyArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -46,6 +47,7 @@ fn main() -> std::process::ExitCode {
         Command::Demo(args) => cli::demo::run(args),
         Command::Bench(args) => cli::bench::run(args),
         Command::Protocol(args) => cli::protocol::run(args),
+        Command::Study(args) => cli::study::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

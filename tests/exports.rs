@@ -428,6 +428,39 @@ fn a_fixation_after_the_video_ended_is_invalid_at_ingest_not_a_kept_slot() {
 }
 
 proptest! {
+    #![proptest_config(ProptestConfig::with_cases(64))]
+    #[test]
+    fn mutated_variant_files_never_panic_and_account_for_every_line(
+        which in 0usize..2,
+        seed in any::<u64>(),
+        edits in 1usize..20,
+    ) {
+        let mut bytes = if which == 0 {
+            monocular_event_statistics("\r\n").0.into_bytes()
+        } else {
+            begaze36_events().into_bytes()
+        };
+        let mut s = seed;
+        for _ in 0..edits {
+            s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            let at = (s >> 33) as usize % bytes.len();
+            let what = b"\t\n,.-B0x\"#"[(s >> 20) as usize % 12];
+            match s % 3 {
+                0 => bytes[at] = what,
+                1 => bytes.insert(at, what),
+                _ => {
+                    bytes.remove(at);
+                }
+            }
+        }
+        if let Ok(r) = parse_smi(&bytes, "mutated", None) {
+            prop_assert_eq!(r.rows.accounted(), r.rows.lines);
+            let _ = fixations(&r, "s", meshgaze::gaze::ingest::default_detector(&r), EyePolicy::Best, &DetectorParams::default(), &params().segmentation);
+        }
+    }
+}
+
+proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
     #[test]
     fn messages_change_stimulus_and_fate_never_the_fixations(

@@ -152,9 +152,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
         return Ok(());
     }
     if !args.data.join("meshes/classic").is_dir() {
+        let looked = std::path::absolute(args.data.join("meshes/classic"))
+            .unwrap_or_else(|_| args.data.join("meshes/classic"));
         bail!(
-            "{}: no meshes/classic folder; pass --data with the shared data folder",
-            args.data.display()
+            "the benchmark meshes are not where meshgaze looked ({} does not exist; --data defaults to ../shared/data, relative to the current directory): pass --data with the shared data folder",
+            looked.display()
         );
     }
     let exe = std::env::current_exe().context("cannot find the meshgaze executable")?;

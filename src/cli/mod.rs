@@ -10,4 +10,5 @@ pub mod saliency;
 pub mod score;
 pub mod simulate;
 pub mod stimulus;
+pub mod study;
 pub mod truth;

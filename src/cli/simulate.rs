@@ -29,11 +29,19 @@ use super::progress_bar::Bars;
 /// --saliency FILE (vertex,value CSV) or --vertices LIST. The observer model (durations,
 /// saccades, blinks, 0.4° accuracy, head distance) is described in the simulate module's
 /// documentation; every parameter is a flag and recorded in simulate.json.
+///
+/// With --study study.toml (after `meshgaze study run` rendered its stimuli): one playlist
+/// recording per subject, sNN_samples.txt, in which every video of the study plays once in an
+/// order shuffled per subject, each with its onset message, as Experiment Center records a
+/// real study; subjects look at extremities.
 #[derive(Debug, Args)]
 pub struct SimulateArgs {
     /// The stimulus: its manifest.json or the folder holding it.
+    #[arg(long, required_unless_present = "study", conflicts_with = "study")]
+    pub stimulus: Option<PathBuf>,
+    /// A study whose stimuli are rendered: write playlist recordings covering all of them.
     #[arg(long)]
-    pub stimulus: PathBuf,
+    pub study: Option<PathBuf>,
     /// Output folder.
     #[arg(short, long)]
     pub output: PathBuf,
@@ -107,8 +115,52 @@ struct SubjectFacts {
     files: [String; 2],
 }
 
+fn run_playlists(args: &SimulateArgs, study_file: &std::path::Path) -> Result<()> {
+    let study = meshgaze::study::Study::load(study_file)?;
+    let mut stimuli = Vec::new();
+    for m in &study.meshes {
+        let dir = study.output.join("stimuli").join(&m.name);
+        stimuli.push(load_stimulus(&dir, None).map_err(|e| {
+            anyhow::anyhow!(
+                "{e}\n(render the study's stimuli first: meshgaze study run {})",
+                study_file.display()
+            )
+        })?);
+    }
+    let params = ObserverParams {
+        subjects: args.subjects,
+        seed: args.seed,
+        accuracy_deg: args.accuracy_deg,
+        precision_deg: args.precision_deg,
+        sharpness: args.sharpness,
+        min_saccade_deg: args.min_saccade_deg,
+        blink_probability: args.blink_probability,
+        ..ObserverParams::default()
+    };
+    if args.subjects == 0 {
+        bail!("--subjects must be at least 1");
+    }
+    let subjects = meshgaze::simulate::playlist::simulate_playlists(&stimuli, &params)
+        .map_err(anyhow::Error::msg)?;
+    meshgaze::file_bytes::create_output_dir(&args.output)?;
+    for s in &subjects {
+        let r = &s.recording;
+        let p = args.output.join(format!("{}_samples.txt", r.id));
+        std::fs::write(&p, write_samples_a(&r.header, &r.samples, &r.messages))
+            .with_context(|| format!("cannot write {}", p.display()))?;
+        if !args.quiet {
+            eprintln!("{}: {}", p.display(), s.order.join(", "));
+        }
+    }
+    Ok(())
+}
+
 pub fn run(args: SimulateArgs) -> Result<()> {
-    let stim = load_stimulus(&args.stimulus, args.mesh.as_deref()).map_err(anyhow::Error::msg)?;
+    if let Some(study) = &args.study {
+        return run_playlists(&args, study);
+    }
+    let stimulus = args.stimulus.as_deref().expect("clap requires --stimulus");
+    let stim = load_stimulus(stimulus, args.mesh.as_deref()).map_err(anyhow::Error::msg)?;
     let mesh = &stim.mesh;
     let bars = Bars::new(args.quiet);
     let mut inputs = vec![

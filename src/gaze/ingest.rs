@@ -144,26 +144,29 @@ pub fn ingest_file(path: &Path, params: &IngestParams) -> Result<IngestedFile, S
     })
 }
 
-/// Refuses two files that are one recording (a stimulus onset at the same tracker time in
-/// both: a sample export and an event export of it) or that give the same subject fixations
+/// Refuses two files that are one recording (the same stimulus onsets at the same tracker
+/// times: a sample export and an event export of it) or that give the same subject fixations
 /// on the same stimulus: either would count that subject's fixations twice.
 pub fn check_one_source_per_subject(files: &[IngestedFile]) -> Result<(), String> {
-    let mut onsets: BTreeMap<(&str, i64), &Path> = BTreeMap::new();
+    let mut onsets: BTreeMap<Vec<(&str, i64)>, &Path> = BTreeMap::new();
     for f in files {
-        for m in &f.messages {
-            let Some(name) = m.stimulus.as_deref() else {
-                continue;
-            };
-            if let Some(other) = onsets.insert((name, m.time_us), &f.path) {
-                if other != f.path {
-                    return Err(format!(
-                        "{} and {} are one recording (both show `{name}` at tracker time {} µs): ingesting both would count its fixations twice (a sample export and an event export?). Give one of them",
-                        other.display(),
-                        f.path.display(),
-                        m.time_us
-                    ));
-                }
-            }
+        let list: Vec<(&str, i64)> = f
+            .messages
+            .iter()
+            .filter_map(|m| m.stimulus.as_deref().map(|s| (s, m.time_us)))
+            .collect();
+        if list.is_empty() {
+            continue;
+        }
+        let first = list[0];
+        if let Some(other) = onsets.insert(list, &f.path) {
+            return Err(format!(
+                "{} and {} are one recording (the same stimulus onsets at the same tracker times, e.g. `{}` at {} µs): ingesting both would count its fixations twice (a sample export and an event export?). Give one of them",
+                other.display(),
+                f.path.display(),
+                first.0,
+                first.1
+            ));
         }
     }
     let mut seen: BTreeMap<(&str, &str), &Path> = BTreeMap::new();

@@ -20,6 +20,8 @@
 //! During camera moves the observer keeps looking at the screen point where the target was
 //! when the fixation started (no smooth pursuit): such fixations carry `phase = move`.
 use glam::DVec3;
+pub mod playlist;
+
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;

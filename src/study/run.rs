@@ -1,0 +1,623 @@
+//! Running a study like `make`: every step writes its outputs, then a stamp holding the hash of
+//! its inputs; a step whose stamp matches is skipped. Every mesh is an independent job, so meshes
+//! run in parallel (`jobs`) or in shards on separate machines (`shard`), and a run killed at any
+//! point redoes only the steps without a stamp.
+use std::collections::BTreeMap;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{Context, Result};
+use rayon::prelude::*;
+use serde::Serialize;
+
+use super::config::{stem_of, Study, StudyMesh};
+use crate::file_bytes::create_output_dir;
+use crate::gaze::fixation_table::{write_fixations_csv, FixationRow};
+use crate::gaze::fixations::{DetectorParams, EyePolicy};
+use crate::gaze::ingest::{
+    check_one_source_per_subject, ingest_file, write_messages_csv, write_quality_csv, FilterRules,
+    IngestParams,
+};
+use crate::gaze::stimulus_messages::{Segmentation, StimulusPattern};
+use crate::mesh::load_mesh;
+use crate::progress::{Progress, Silent};
+use crate::projection::project_file::{project_files, write_projection, ProjectOptions};
+use crate::provenance::{sha256_hex, InputFile};
+use crate::saliency::map_file::{compute_and_write_map, read_map, MapOutputs};
+use crate::saliency::SmsParams;
+use crate::scoring::dataset::{write_score_rows, SCORE_CSV_HEADER};
+use crate::scoring::{score_mesh, ScoreParams};
+use crate::stimulus::load::load_stimulus;
+use crate::stimulus::{render_stimulus, FrameImages, StimulusOptions};
+use crate::truth::{build_truth, read_projections, write_truth, TruthParams};
+
+const STAMP: &str = ".meshgaze-stamp";
+
+/// How a run is split and shown.
+#[derive(Debug, Clone, Copy)]
+pub struct RunOptions {
+    /// (i, n): run the i-th (1-based) of n shares of the meshes.
+    pub shard: Option<(usize, usize)>,
+    /// Meshes processed at once.
+    pub jobs: usize,
+}
+
+/// What happened to one step.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct StepLog {
+    pub mesh: String,
+    pub step: String,
+    /// `done`, `up-to-date`, `skipped` or `failed`.
+    pub outcome: &'static str,
+    pub detail: String,
+}
+
+/// The run's account, as study.json and the log show it.
+#[derive(Debug, Clone, Serialize)]
+pub struct StudyRun {
+    pub steps: Vec<StepLog>,
+    /// Problems that did not stop the study (a video no mesh has, a mesh no recording shows,
+    /// an unreadable recording).
+    pub problems: Vec<String>,
+    pub meshes_in_shard: Vec<String>,
+    pub recordings: usize,
+}
+
+/// The stable share of a mesh among `n`: from a hash of its name, so adding a mesh does not
+/// move the others.
+pub fn shard_of(name: &str, n: usize) -> usize {
+    let h = sha256_hex(name.as_bytes());
+    let v = u64::from_str_radix(&h[..15], 16).unwrap_or(0);
+    (v % n as u64) as usize + 1
+}
+
+fn key_of(parts: &[&str]) -> String {
+    let mut text = format!("meshgaze {}\n", env!("CARGO_PKG_VERSION"));
+    for p in parts {
+        text.push_str(p);
+        text.push('\n');
+    }
+    sha256_hex(text.as_bytes())
+}
+
+fn stamped(dir: &Path, key: &str) -> bool {
+    std::fs::read_to_string(dir.join(STAMP)).is_ok_and(|k| k.trim() == key)
+}
+
+fn stamp(dir: &Path, key: &str) -> Result<()> {
+    let p = dir.join(STAMP);
+    std::fs::write(&p, format!("{key}\n")).with_context(|| format!("cannot write {}", p.display()))
+}
+
+fn hash_file(p: &Path) -> Result<String> {
+    Ok(InputFile::hash(p)
+        .with_context(|| format!("cannot read {}", p.display()))?
+        .sha256)
+}
+
+/// Runs a study (see `meshgaze study run --help`).
+pub fn run_study(study: &Study, options: &RunOptions, progress: &dyn Progress) -> Result<StudyRun> {
+    let out = &study.output;
+    create_output_dir(out)?;
+    let mut problems: Vec<String> = study.unmatched.clone();
+    let meshes: Vec<&StudyMesh> = study
+        .meshes
+        .iter()
+        .filter(|m| options.shard.is_none_or(|(i, n)| shard_of(&m.name, n) == i))
+        .collect();
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(options.jobs.max(1))
+        .build()
+        .context("cannot start the worker threads")?;
+    let protocol_hash = sha256_hex(study.protocol_text.as_bytes());
+
+    // 1. Stimuli: every mesh of the shard, whether or not recordings exist yet.
+    progress.start("stimuli", meshes.len() as u64);
+    let stimulus_logs: Vec<StepLog> = pool.install(|| {
+        meshes
+            .par_iter()
+            .map(|m| {
+                let r = ensure_stimulus(study, m, &protocol_hash);
+                progress.advance(1);
+                r
+            })
+            .collect()
+    });
+    progress.finish();
+    let mut steps = stimulus_logs;
+    for s in steps.iter().filter(|s| s.outcome == "failed") {
+        problems.push(format!("mesh `{}`: {}", s.mesh, s.detail));
+    }
+
+    // 2. Ingest: every recording, once (each shard does the same, with the same bytes).
+    if study.recordings.is_empty() {
+        problems.push(
+            "no recordings found yet: the stimuli are rendered; record the subjects watching them, then run the study again".to_string(),
+        );
+        return finish(study, steps, problems, &meshes, 0);
+    }
+    let (ingest_log, ingest_problems) = ingest_all(study, &protocol_hash)?;
+    steps.push(ingest_log);
+    problems.extend(ingest_problems);
+    let fixations_csv = out.join("ingest").join("fixations.csv");
+    let stimuli_seen = stimuli_in(&fixations_csv)?;
+    let mut other_images = Vec::new();
+    for s in &stimuli_seen {
+        if study.meshes.iter().any(|m| m.name == stem_of(Path::new(s))) {
+            continue;
+        }
+        let is_video = s.rsplit_once('.').is_some_and(|(_, e)| {
+            [
+                "avi", "mp4", "m4v", "mov", "mkv", "wmv", "mpg", "mpeg", "webm", "flv", "ogv",
+                "3gp",
+            ]
+            .iter()
+            .any(|v| e.eq_ignore_ascii_case(v))
+        });
+        if is_video {
+            problems.push(format!(
+                "the recordings show the video `{s}`, but no mesh of the study is named `{}`",
+                stem_of(Path::new(s))
+            ));
+        } else {
+            other_images.push(s.as_str());
+        }
+    }
+    if !other_images.is_empty() {
+        problems.push(format!(
+            "other stimuli in the recordings, not videos of this study (their fixations are not used): {}",
+            other_images.join(", ")
+        ));
+    }
+
+    // 3. Per mesh: project, truth, saliency, score.
+    progress.start("meshes", meshes.len() as u64);
+    let per_mesh: Vec<(Vec<StepLog>, Vec<String>)> = pool.install(|| {
+        meshes
+            .par_iter()
+            .map(|m| {
+                let failed = steps
+                    .iter()
+                    .any(|s| s.mesh == m.name && s.step == "stimulus" && s.outcome == "failed");
+                let r = mesh_job(study, m, &fixations_csv, &stimuli_seen, failed);
+                progress.advance(1);
+                r
+            })
+            .collect()
+    });
+    progress.finish();
+    for (logs, p) in per_mesh {
+        steps.extend(logs);
+        problems.extend(p);
+    }
+    finish(study, steps, problems, &meshes, study.recordings.len())
+}
+
+fn finish(
+    study: &Study,
+    steps: Vec<StepLog>,
+    problems: Vec<String>,
+    meshes: &[&StudyMesh],
+    recordings: usize,
+) -> Result<StudyRun> {
+    let run = StudyRun {
+        steps,
+        problems,
+        meshes_in_shard: meshes.iter().map(|m| m.name.clone()).collect(),
+        recordings,
+    };
+    merge_scores(study)?;
+    let log = study.output.join("run.log");
+    let mut w =
+        std::fs::File::create(&log).with_context(|| format!("cannot create {}", log.display()))?;
+    for s in &run.steps {
+        writeln!(w, "{}\t{}\t{}\t{}", s.mesh, s.step, s.outcome, s.detail)?;
+    }
+    for p in &run.problems {
+        writeln!(w, "problem\t{p}")?;
+    }
+    Ok(run)
+}
+
+fn log(mesh: &str, step: &str, outcome: &'static str, detail: impl Into<String>) -> StepLog {
+    StepLog {
+        mesh: mesh.to_string(),
+        step: step.to_string(),
+        outcome,
+        detail: detail.into(),
+    }
+}
+
+fn ensure_stimulus(study: &Study, m: &StudyMesh, protocol_hash: &str) -> StepLog {
+    let dir = study.output.join("stimuli").join(&m.name);
+    let attempt = || -> Result<&'static str> {
+        let key = key_of(&["stimulus", &hash_file(&m.path)?, protocol_hash]);
+        if stamped(&dir, &key) {
+            return Ok("up-to-date");
+        }
+        // Once recordings exist, the videos were shown: a mesh or protocol that changed since
+        // cannot get a new video, or its fixations would land on a shape nobody saw.
+        if dir.join(STAMP).exists() && !study.recordings.is_empty() {
+            anyhow::bail!(
+                "{} (or the protocol) changed after its video was rendered and shown: the subjects saw the old one, so it is not re-rendered and its fixations are not projected; restore the old file, or start a new study for the new mesh",
+                m.path.display()
+            );
+        }
+        let (mesh, _) = load_mesh(&m.path)?;
+        render_stimulus(
+            &m.path,
+            &mesh,
+            &study.protocol,
+            &study.protocol_text,
+            &study.protocol_name,
+            &dir,
+            &StimulusOptions {
+                frames: FrameImages::None,
+                id_buffer: false,
+                verify: false,
+            },
+            &Silent,
+        )
+        .map_err(anyhow::Error::msg)?;
+        stamp(&dir, &key)?;
+        Ok("done")
+    };
+    match attempt() {
+        Ok(o) => log(&m.name, "stimulus", o, format!("{}", dir.display())),
+        Err(e) => log(&m.name, "stimulus", "failed", format!("{e:#}")),
+    }
+}
+
+fn ingest_params(study: &Study) -> Result<IngestParams> {
+    let rules = &study.protocol.fixations;
+    let (start, end) = match &study.stimulus_pattern {
+        Some(p) => (Some(p.as_str()), study.stimulus_end_pattern.as_deref()),
+        None => (
+            rules.stimulus_pattern.as_deref(),
+            rules.stimulus_end_pattern.as_deref(),
+        ),
+    };
+    let pattern = start
+        .map(|p| StimulusPattern::new(p, end))
+        .transpose()
+        .map_err(|e| anyhow::anyhow!("{}: {e}", study.file.display()))?;
+    Ok(IngestParams {
+        format: None,
+        detector: None,
+        eye: EyePolicy::Best,
+        subject: None,
+        detector_params: DetectorParams {
+            max_dispersion_px: rules.idt_max_dispersion_px,
+            min_duration_ms: rules.min_duration_ms,
+            max_velocity_px_s: rules.ivt_max_velocity_deg_s
+                * study.protocol.display.pixels_per_degree(),
+            ..DetectorParams::default()
+        },
+        filter: FilterRules {
+            drop_first: rules.drop_first,
+            drop_last: rules.drop_last,
+            keep_longest: rules.keep_longest,
+        },
+        segmentation: Segmentation {
+            pattern,
+            max_duration_us: Some((study.protocol.duration_s() * 1e6).round() as i64),
+        },
+    })
+}
+
+/// Ingests every recording into OUT/ingest; a recording that cannot be read is reported and
+/// left out, the others go on.
+fn ingest_all(study: &Study, protocol_hash: &str) -> Result<(StepLog, Vec<String>)> {
+    let dir = study.output.join("ingest");
+    let mut parts = vec!["ingest".to_string(), protocol_hash.to_string()];
+    parts.push(format!(
+        "{:?}{:?}",
+        study.stimulus_pattern, study.stimulus_end_pattern
+    ));
+    for r in &study.recordings {
+        parts.push(hash_file(r)?);
+    }
+    let refs: Vec<&str> = parts.iter().map(String::as_str).collect();
+    let key = key_of(&refs);
+    let problems_file = dir.join("problems.txt");
+    if stamped(&dir, &key) {
+        let problems = std::fs::read_to_string(&problems_file)
+            .unwrap_or_default()
+            .lines()
+            .map(str::to_string)
+            .collect();
+        return Ok((
+            log("*", "ingest", "up-to-date", dir.display().to_string()),
+            problems,
+        ));
+    }
+    let params = ingest_params(study)?;
+    let mut files = Vec::new();
+    let mut problems = Vec::new();
+    for r in &study.recordings {
+        match ingest_file(r, &params) {
+            Ok(f) => files.push(f),
+            Err(e) => problems.push(format!("recording left out: {e}")),
+        }
+    }
+    if let Err(e) = check_one_source_per_subject(&files) {
+        anyhow::bail!("{e}");
+    }
+    create_output_dir(&dir)?;
+    let rows: Vec<FixationRow> = files
+        .iter()
+        .flat_map(|f| f.fixations.iter().map(FixationRow::from))
+        .collect();
+    let p = dir.join("fixations.csv");
+    write_fixations_csv(
+        std::io::BufWriter::new(
+            std::fs::File::create(&p).with_context(|| format!("cannot create {}", p.display()))?,
+        ),
+        &rows,
+    )
+    .map_err(anyhow::Error::msg)?;
+    let m = dir.join("messages.csv");
+    write_messages_csv(
+        std::io::BufWriter::new(
+            std::fs::File::create(&m).with_context(|| format!("cannot create {}", m.display()))?,
+        ),
+        &files,
+    )
+    .map_err(anyhow::Error::msg)?;
+    let q = dir.join("quality.csv");
+    let mut w = std::io::BufWriter::new(
+        std::fs::File::create(&q).with_context(|| format!("cannot create {}", q.display()))?,
+    );
+    let quality: Vec<_> = files
+        .iter()
+        .flat_map(|f| f.quality.iter().cloned())
+        .collect();
+    write_quality_csv(&mut w, &quality)?;
+    w.flush()?;
+    std::fs::write(
+        &problems_file,
+        problems
+            .iter()
+            .map(|p| format!("{p}\n"))
+            .collect::<String>(),
+    )?;
+    stamp(&dir, &key)?;
+    Ok((
+        log(
+            "*",
+            "ingest",
+            "done",
+            format!("{} recordings, {} fixations", files.len(), rows.len()),
+        ),
+        problems,
+    ))
+}
+
+/// The distinct stimulus names in a fixations.csv.
+fn stimuli_in(fixations_csv: &Path) -> Result<Vec<String>> {
+    let rows = crate::gaze::fixation_table::read_fixations_csv(fixations_csv)
+        .map_err(anyhow::Error::msg)?;
+    let mut names: Vec<String> = rows
+        .into_iter()
+        .map(|r| r.stimulus)
+        .filter(|s| !s.is_empty())
+        .collect();
+    names.sort();
+    names.dedup();
+    Ok(names)
+}
+
+fn mesh_job(
+    study: &Study,
+    m: &StudyMesh,
+    fixations_csv: &Path,
+    stimuli_seen: &[String],
+    stimulus_failed: bool,
+) -> (Vec<StepLog>, Vec<String>) {
+    let mut logs = Vec::new();
+    let mut problems = Vec::new();
+    if stimulus_failed {
+        logs.push(log(&m.name, "project", "skipped", "its stimulus failed"));
+        return (logs, problems);
+    }
+    let shown: Vec<&String> = stimuli_seen
+        .iter()
+        .filter(|s| stem_of(Path::new(s.as_str())) == m.name)
+        .collect();
+    let name = match shown.as_slice() {
+        [] => {
+            problems.push(format!(
+                "mesh `{}`: no recording shows it (no message names {}.*)",
+                m.name, m.name
+            ));
+            logs.push(log(
+                &m.name,
+                "project",
+                "skipped",
+                "no recording shows this mesh",
+            ));
+            return (logs, problems);
+        }
+        [one] => (*one).clone(),
+        several => {
+            problems.push(format!(
+                "mesh `{}`: several stimuli map to it ({}); using {}",
+                m.name,
+                several
+                    .iter()
+                    .map(|s| s.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                several[0]
+            ));
+            several[0].clone()
+        }
+    };
+    if let Err(e) = mesh_steps(study, m, fixations_csv, &name, &mut logs) {
+        logs.push(log(&m.name, "mesh", "failed", format!("{e:#}")));
+        problems.push(format!("mesh `{}`: {e:#}", m.name));
+    }
+    (logs, problems)
+}
+
+fn mesh_steps(
+    study: &Study,
+    m: &StudyMesh,
+    fixations_csv: &Path,
+    name: &str,
+    logs: &mut Vec<StepLog>,
+) -> Result<()> {
+    let out = &study.output;
+    let stim_dir = out.join("stimuli").join(&m.name);
+    let stim = load_stimulus(&stim_dir, None).map_err(|e| {
+        if e.contains("SHA-256") || e.contains("sha256") || e.contains("differs") {
+            anyhow::anyhow!(
+                "{} changed after its video was rendered: the subjects saw the old mesh, so its fixations cannot be projected onto this one ({e})",
+                m.path.display()
+            )
+        } else {
+            anyhow::anyhow!(e)
+        }
+    })?;
+    if stim.mesh_sha256 != hash_file(&m.path)? {
+        anyhow::bail!(
+            "{} changed after its video was shown: the subjects saw the old mesh (manifest {}), so its fixations are not projected onto the new one; restore the old file or start a new study",
+            m.path.display(),
+            stim.manifest_path.display()
+        );
+    }
+    let fix_hash = hash_file(fixations_csv)?;
+    // Projection.
+    let proj_dir = out.join("projection").join(&m.name);
+    let key = key_of(&["project", &stim.manifest_sha256, &fix_hash, name]);
+    if stamped(&proj_dir, &key) {
+        logs.push(log(&m.name, "project", "up-to-date", ""));
+    } else {
+        let options = ProjectOptions {
+            stimulus_name: Some(name.to_string()),
+            self_check: true,
+            ..ProjectOptions::default()
+        };
+        let run = project_files(&stim, &[fixations_csv.to_path_buf()], &options, &Silent)?;
+        write_projection(&proj_dir, &run)?;
+        stamp(&proj_dir, &key)?;
+        logs.push(log(
+            &m.name,
+            "project",
+            "done",
+            format!("{} fixations", run.projected.len()),
+        ));
+    }
+    // Truth.
+    let truth_dir = out.join("truth").join(&m.name);
+    let projected = proj_dir.join("projected.csv");
+    let key = key_of(&["truth", &stim.manifest_sha256, &hash_file(&projected)?]);
+    if stamped(&truth_dir, &key) {
+        logs.push(log(&m.name, "truth", "up-to-date", ""));
+    } else {
+        let projections = read_projections(&stim, std::slice::from_ref(&projected))?;
+        let truth = build_truth(&stim, projections, &TruthParams::default(), &Silent)?;
+        write_truth(&truth_dir, &stim, &truth)?;
+        stamp(&truth_dir, &key)?;
+        logs.push(log(
+            &m.name,
+            "truth",
+            "done",
+            format!("{} fixations on the mesh", truth.sidecar.fixations_on_mesh),
+        ));
+    }
+    // Saliency, one file per method.
+    let mesh_hash = stim.mesh_sha256.clone();
+    let mut maps = Vec::new();
+    for &method in &study.methods {
+        let dir = out.join("saliency").join(method.name());
+        let prefix = dir.join(&m.name);
+        let stamp_dir = dir.join(format!(".{}", m.name));
+        let key = key_of(&["saliency", method.name(), &mesh_hash]);
+        if stamped(&stamp_dir, &key) {
+            logs.push(log(
+                &m.name,
+                &format!("saliency {}", method.name()),
+                "up-to-date",
+                "",
+            ));
+            maps.push((
+                method.name().to_string(),
+                read_map(&prefix.with_extension("csv"), stim.mesh.positions.len())?,
+            ));
+            continue;
+        }
+        let input = InputFile::hash(&stim.mesh_path)?;
+        let r = compute_and_write_map(
+            &stim.mesh_path,
+            &stim.mesh,
+            &stim.mesh_report,
+            input,
+            method,
+            &SmsParams::default(),
+            MapOutputs::default(),
+            &prefix,
+            &Silent,
+        )?;
+        create_output_dir(&stamp_dir)?;
+        stamp(&stamp_dir, &key)?;
+        logs.push(log(
+            &m.name,
+            &format!("saliency {}", method.name()),
+            "done",
+            "",
+        ));
+        maps.push((method.name().to_string(), r.values));
+    }
+    // Score.
+    let score_dir = out.join("scores");
+    let score_file = score_dir.join(format!("{}.csv", m.name));
+    let truth_csv = truth_dir.join("truth.csv");
+    let mut parts = vec![
+        "score".to_string(),
+        mesh_hash.clone(),
+        hash_file(&truth_csv)?,
+    ];
+    parts.extend(study.methods.iter().map(|m| m.name().to_string()));
+    let refs: Vec<&str> = parts.iter().map(String::as_str).collect();
+    let key = key_of(&refs);
+    let stamp_dir = score_dir.join(format!(".{}", m.name));
+    if stamped(&stamp_dir, &key) && score_file.exists() {
+        logs.push(log(&m.name, "score", "up-to-date", ""));
+        return Ok(());
+    }
+    let truth = crate::truth::load_ground_truth(&truth_csv, stim.mesh.positions.len(), 0.05)?;
+    let score = score_mesh(&stim.mesh, &truth, &maps, &ScoreParams::default(), &Silent)
+        .map_err(anyhow::Error::msg)?;
+    create_output_dir(&score_dir)?;
+    let mut bytes = Vec::new();
+    write_score_rows(&mut bytes, &m.name, &score.rows)?;
+    std::fs::write(&score_file, bytes)
+        .with_context(|| format!("cannot write {}", score_file.display()))?;
+    create_output_dir(&stamp_dir)?;
+    stamp(&stamp_dir, &key)?;
+    logs.push(log(&m.name, "score", "done", ""));
+    Ok(())
+}
+
+/// Joins OUT/scores/<mesh>.csv of every mesh present (from any shard) into OUT/scores.csv, in
+/// mesh-name order.
+pub fn merge_scores(study: &Study) -> Result<usize> {
+    let dir = study.output.join("scores");
+    let mut parts: BTreeMap<String, PathBuf> = BTreeMap::new();
+    if let Ok(entries) = std::fs::read_dir(&dir) {
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.extension().is_some_and(|x| x == "csv") {
+                parts.insert(stem_of(&p), p);
+            }
+        }
+    }
+    let mut out = format!("{SCORE_CSV_HEADER}\n").into_bytes();
+    for p in parts.values() {
+        out.extend(std::fs::read(p).with_context(|| format!("cannot read {}", p.display()))?);
+    }
+    let target = study.output.join("scores.csv");
+    std::fs::write(&target, out).with_context(|| format!("cannot write {}", target.display()))?;
+    Ok(parts.len())
+}

@@ -1,0 +1,233 @@
+//! `meshgaze study` end to end on a small simulated playlist study (3 meshes x 8 subjects, a
+//! 14 s protocol): stimuli before recordings, the truth equal to the single-mesh commands,
+//! incremental reruns, a resumed run, shards merged, a mesh changed after it was shown.
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn meshgaze(dir: &Path, args: &[&str]) -> String {
+    let out = Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap();
+    let text =
+        String::from_utf8_lossy(&out.stdout).to_string() + &String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "meshgaze {args:?} failed:\n{text}");
+    text
+}
+
+fn read(p: PathBuf) -> Vec<u8> {
+    std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()))
+}
+
+fn setup(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("meshgaze-study-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.join("meshes")).unwrap();
+    let bunny = common::repo_root().join("stimuli/meshes/bun_zipper_res3.ply");
+    for m in ["apple", "bunny", "cow"] {
+        std::fs::copy(&bunny, dir.join("meshes").join(format!("{m}.ply"))).unwrap();
+    }
+    let short = meshgaze(&dir, &["protocol", "show"])
+        .replace("width_px = 1680", "width_px = 320")
+        .replace("height_px = 1050", "height_px = 200")
+        .replace("generator = \"icosahedron\"", "generator = \"turntable\"")
+        .replace("count = 12", "count = 4")
+        .replace("move_s = 1.0", "move_s = 0.5");
+    std::fs::write(dir.join("short.toml"), short).unwrap();
+    std::fs::write(
+        dir.join("study.toml"),
+        "protocol = \"short.toml\"\nmeshes = [\"meshes/*.ply\"]\nrecordings = [\"recordings/*.txt\"]\nmethods = [\"mc\"]\n",
+    )
+    .unwrap();
+    dir
+}
+
+fn log_lines(dir: &Path, outcome: &str) -> Vec<String> {
+    String::from_utf8(read(dir.join("study/run.log")))
+        .unwrap()
+        .lines()
+        .filter(|l| l.split('\t').nth(2) == Some(outcome))
+        .map(str::to_string)
+        .collect()
+}
+
+#[test]
+fn a_playlist_study_runs_resumes_shards_and_refuses_a_changed_mesh() {
+    let dir = setup("main");
+    // Before any recording: the stimuli, and a word that recordings are missing.
+    let text = meshgaze(&dir, &["study", "run", "study.toml", "--quiet"]);
+    // --quiet: nothing but the encoder library's own warnings.
+    assert!(text.lines().all(|l| l.starts_with("[OpenH264]")), "{text}");
+    for m in ["apple", "bunny", "cow"] {
+        assert!(dir.join(format!("study/stimuli/{m}/stimulus.mp4")).exists());
+    }
+    let log = String::from_utf8(read(dir.join("study/run.log"))).unwrap();
+    assert!(log.contains("no recordings found yet"), "{log}");
+
+    // Playlist recordings: every subject sees every video once, in its own order.
+    meshgaze(
+        &dir,
+        &[
+            "simulate",
+            "--study",
+            "study.toml",
+            "--subjects",
+            "8",
+            "-o",
+            "recordings",
+            "-q",
+        ],
+    );
+    meshgaze(
+        &dir,
+        &["study", "run", "study.toml", "--jobs", "2", "--quiet"],
+    );
+    // 8 subjects x 15 kept fixations per mesh before projection.
+    let fix = String::from_utf8(read(dir.join("study/ingest/fixations.csv"))).unwrap();
+    for m in ["apple", "bunny", "cow"] {
+        let kept = fix
+            .lines()
+            .filter(|l| {
+                l.split(',').nth(1) == Some(&format!("{m}.mp4"))
+                    && l.split(',').nth(12) == Some("kept")
+            })
+            .count();
+        assert_eq!(kept, 8 * 15, "{m}");
+    }
+    // The truth equals what the single-mesh commands give by hand.
+    let recordings: Vec<String> = (1..=8)
+        .map(|k| format!("recordings/s{k:02}_samples.txt"))
+        .collect();
+    let mut args = vec![
+        "ingest",
+        "-q",
+        "--protocol",
+        "short.toml",
+        "-o",
+        "hand/ingest",
+    ];
+    args.extend(recordings.iter().map(String::as_str));
+    meshgaze(&dir, &args);
+    assert_eq!(
+        read(dir.join("hand/ingest/fixations.csv")),
+        read(dir.join("study/ingest/fixations.csv"))
+    );
+    meshgaze(
+        &dir,
+        &[
+            "project",
+            "-q",
+            "--stimulus",
+            "study/stimuli/bunny",
+            "--fixations",
+            "hand/ingest/fixations.csv",
+            "--stimulus-name",
+            "bunny.mp4",
+            "-o",
+            "hand/proj",
+        ],
+    );
+    meshgaze(
+        &dir,
+        &[
+            "truth",
+            "-q",
+            "--stimulus",
+            "study/stimuli/bunny",
+            "hand/proj",
+            "-o",
+            "hand/truth",
+        ],
+    );
+    assert_eq!(
+        read(dir.join("hand/truth/truth.csv")),
+        read(dir.join("study/truth/bunny/truth.csv"))
+    );
+    let scores = read(dir.join("study/scores.csv"));
+    assert!(String::from_utf8_lossy(&scores).lines().count() > 3 * 21);
+
+    // Nothing changed: nothing redone.
+    meshgaze(&dir, &["study", "run", "study.toml", "--quiet"]);
+    assert!(
+        log_lines(&dir, "done").is_empty(),
+        "{:?}",
+        log_lines(&dir, "done")
+    );
+
+    // A run killed after projecting cow but before stamping it: redone, same bytes.
+    let truth_before = read(dir.join("study/truth/cow/truth.csv"));
+    std::fs::remove_file(dir.join("study/projection/cow/.meshgaze-stamp")).unwrap();
+    std::fs::write(
+        dir.join("study/projection/cow/projected.csv"),
+        b"subject,fix",
+    )
+    .unwrap();
+    meshgaze(&dir, &["study", "run", "study.toml", "--quiet"]);
+    let done = log_lines(&dir, "done");
+    assert!(done.iter().all(|l| l.starts_with("cow\t")), "{done:?}");
+    assert!(
+        done.iter().any(|l| l.starts_with("cow\tproject")),
+        "{done:?}"
+    );
+    assert_eq!(read(dir.join("study/truth/cow/truth.csv")), truth_before);
+    assert_eq!(read(dir.join("study/scores.csv")), scores);
+
+    // Shards 1/2 and 2/2 into another folder, merged: the same scores and truths.
+    let sharded =
+        String::from_utf8(read(dir.join("study.toml"))).unwrap() + "output = \"sharded\"\n";
+    std::fs::write(dir.join("sharded.toml"), sharded).unwrap();
+    meshgaze(
+        &dir,
+        &["study", "run", "sharded.toml", "--shard", "1/2", "--quiet"],
+    );
+    meshgaze(
+        &dir,
+        &["study", "run", "sharded.toml", "--shard", "2/2", "--quiet"],
+    );
+    meshgaze(&dir, &["study", "merge", "sharded.toml"]);
+    assert_eq!(read(dir.join("sharded/scores.csv")), scores);
+    for m in ["apple", "bunny", "cow"] {
+        assert_eq!(
+            read(dir.join(format!("sharded/truth/{m}/truth.csv"))),
+            read(dir.join(format!("study/truth/{m}/truth.csv")))
+        );
+    }
+
+    // A mesh changed after its video was shown: refused, the rest of the study completes.
+    let mut apple = read(dir.join("meshes/apple.ply"));
+    apple.extend_from_slice(b"\n");
+    std::fs::write(dir.join("meshes/apple.ply"), apple).unwrap();
+    let text = meshgaze(&dir, &["study", "run", "study.toml"]);
+    assert!(
+        text.contains("apple.ply") && text.contains("changed after its video"),
+        "{text}"
+    );
+    assert!(log_lines(&dir, "failed")
+        .iter()
+        .all(|l| l.starts_with("apple\t")));
+    assert!(!log_lines(&dir, "up-to-date").is_empty());
+}
+
+#[test]
+fn a_study_toml_typo_names_the_file_line_and_column() {
+    let dir = setup("typo");
+    std::fs::write(
+        dir.join("study.toml"),
+        "protocol = \"short.toml\"\nmeshes = [\"meshes/*.ply\"]\nmethod = [\"mc\"]\n",
+    )
+    .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+        .current_dir(&dir)
+        .args(["study", "run", "study.toml"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        e.contains("study.toml") && e.contains("line 3, column 1") && e.contains("method"),
+        "{e}"
+    );
+}
