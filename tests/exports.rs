@@ -444,7 +444,8 @@ proptest! {
         for _ in 0..edits {
             s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
             let at = (s >> 33) as usize % bytes.len();
-            let what = b"\t\n,.-B0x\"#"[(s >> 20) as usize % 12];
+            let alphabet = b"\t\n,.-B0x\"#";
+            let what = alphabet[(s >> 20) as usize % alphabet.len()];
             match s % 3 {
                 0 => bytes[at] = what,
                 1 => bytes.insert(at, what),

@@ -11,13 +11,10 @@ use meshgaze::gaze::fixation_table::{write_fixations_csv, FixationRow};
 use meshgaze::gaze::fixations::{Detector, DetectorParams, EyePolicy, Fate, Fixation};
 use meshgaze::gaze::ingest::{
     check_one_source_per_subject, ingest_file, message_kind_counts, write_messages_csv,
-    write_quality_csv, write_samples_rows, FilterRules, IngestParams, IngestedFile,
-    SAMPLES_CSV_HEADER,
+    write_quality_csv, write_samples_rows, IngestParams, IngestedFile, SAMPLES_CSV_HEADER,
 };
 use meshgaze::gaze::model::{Header, RowAccount};
-use meshgaze::gaze::stimulus_messages::{
-    classify_messages, message_census, stimulus_segments, Segmentation, StimulusPattern,
-};
+use meshgaze::gaze::stimulus_messages::{classify_messages, message_census, stimulus_segments};
 use meshgaze::gaze::{read_smi, SmiFormat};
 use meshgaze::provenance::{InputFile, Provenance};
 use meshgaze::stimulus::Protocol;
@@ -129,44 +126,24 @@ struct Sidecar<'a> {
 
 fn params(args: &IngestArgs, protocol: &Protocol) -> Result<IngestParams> {
     let rules = &protocol.fixations;
-    // The command line wins over the protocol.
-    let (start, end) = match &args.stimulus_pattern {
-        Some(p) => (Some(p.as_str()), args.stimulus_end_pattern.as_deref()),
-        None => (
-            rules.stimulus_pattern.as_deref(),
-            rules.stimulus_end_pattern.as_deref(),
-        ),
-    };
-    let pattern = start
-        .map(|p| StimulusPattern::new(p, end))
-        .transpose()
-        .map_err(anyhow::Error::msg)?;
-    Ok(IngestParams {
-        format: args.format,
-        detector: args.detector,
-        eye: args.eye,
-        subject: args.subject.clone(),
-        detector_params: DetectorParams {
-            max_dispersion_px: args
-                .max_dispersion_px
-                .unwrap_or(rules.idt_max_dispersion_px),
-            min_duration_ms: args.min_duration_ms.unwrap_or(rules.min_duration_ms),
-            max_velocity_px_s: args
-                .max_velocity_deg_s
-                .unwrap_or(rules.ivt_max_velocity_deg_s)
-                * protocol.display.pixels_per_degree(),
-            ..DetectorParams::default()
-        },
-        filter: FilterRules {
-            drop_first: rules.drop_first,
-            drop_last: rules.drop_last,
-            keep_longest: rules.keep_longest,
-        },
-        segmentation: Segmentation {
-            pattern,
-            max_duration_us: Some((protocol.duration_s() * 1e6).round() as i64),
-        },
-    })
+    let pattern = args
+        .stimulus_pattern
+        .as_deref()
+        .map(|p| (p, args.stimulus_end_pattern.as_deref()));
+    let mut params = IngestParams::from_protocol(protocol, pattern).map_err(anyhow::Error::msg)?;
+    params.format = args.format;
+    params.detector = args.detector;
+    params.eye = args.eye;
+    params.subject = args.subject.clone();
+    let d = &mut params.detector_params;
+    d.max_dispersion_px = args
+        .max_dispersion_px
+        .unwrap_or(rules.idt_max_dispersion_px);
+    d.min_duration_ms = args.min_duration_ms.unwrap_or(rules.min_duration_ms);
+    if let Some(v) = args.max_velocity_deg_s {
+        d.max_velocity_px_s = v * protocol.display.pixels_per_degree();
+    }
+    Ok(params)
 }
 
 /// --list-messages: each file's distinct messages, counted and classified.

@@ -115,6 +115,22 @@ struct SubjectFacts {
     files: [String; 2],
 }
 
+fn observer_params(args: &SimulateArgs) -> Result<ObserverParams> {
+    if args.subjects == 0 {
+        bail!("--subjects must be at least 1");
+    }
+    Ok(ObserverParams {
+        subjects: args.subjects,
+        seed: args.seed,
+        accuracy_deg: args.accuracy_deg,
+        precision_deg: args.precision_deg,
+        sharpness: args.sharpness,
+        min_saccade_deg: args.min_saccade_deg,
+        blink_probability: args.blink_probability,
+        ..ObserverParams::default()
+    })
+}
+
 fn run_playlists(args: &SimulateArgs, study_file: &std::path::Path) -> Result<()> {
     let study = meshgaze::study::Study::load(study_file)?;
     let mut stimuli = Vec::new();
@@ -127,19 +143,7 @@ fn run_playlists(args: &SimulateArgs, study_file: &std::path::Path) -> Result<()
             )
         })?);
     }
-    let params = ObserverParams {
-        subjects: args.subjects,
-        seed: args.seed,
-        accuracy_deg: args.accuracy_deg,
-        precision_deg: args.precision_deg,
-        sharpness: args.sharpness,
-        min_saccade_deg: args.min_saccade_deg,
-        blink_probability: args.blink_probability,
-        ..ObserverParams::default()
-    };
-    if args.subjects == 0 {
-        bail!("--subjects must be at least 1");
-    }
+    let params = observer_params(args)?;
     let subjects = meshgaze::simulate::playlist::simulate_playlists(&stimuli, &params)
         .map_err(anyhow::Error::msg)?;
     meshgaze::file_bytes::create_output_dir(&args.output)?;
@@ -212,19 +216,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         .stimulus_name
         .clone()
         .unwrap_or_else(|| format!("{}.mp4", stim.mesh_stem()));
-    let params = ObserverParams {
-        subjects: args.subjects,
-        seed: args.seed,
-        accuracy_deg: args.accuracy_deg,
-        precision_deg: args.precision_deg,
-        sharpness: args.sharpness,
-        min_saccade_deg: args.min_saccade_deg,
-        blink_probability: args.blink_probability,
-        ..ObserverParams::default()
-    };
-    if args.subjects == 0 {
-        bail!("--subjects must be at least 1");
-    }
+    let params = observer_params(&args)?;
     bars.start("simulating observers", 0);
     let subjects = simulate_observers(
         mesh,

@@ -7,23 +7,6 @@ use serde::{Deserialize, Serialize};
 
 use super::fixations::Fixation;
 
-/// Columns every fixations.csv has; `invalid_reason` follows (absent in older files).
-pub const HEADER: [&str; 13] = [
-    "subject",
-    "stimulus",
-    "eye",
-    "trial",
-    "start_us",
-    "end_us",
-    "duration_ms",
-    "x_px",
-    "y_px",
-    "dispersion_px",
-    "pupil",
-    "onset_offset_us",
-    "fate",
-];
-
 /// The columns written: [`HEADER`] and the reason for an `invalid` fate.
 pub const WRITTEN: [&str; 14] = [
     "subject",
@@ -41,6 +24,9 @@ pub const WRITTEN: [&str; 14] = [
     "fate",
     "invalid_reason",
 ];
+
+/// Columns every fixations.csv has; `invalid_reason` follows (absent in older files).
+pub const HEADER: &[&str] = WRITTEN.split_at(13).0;
 
 /// One row of `fixations.csv`, as read back.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -109,7 +95,7 @@ pub fn parse_fixations_csv(bytes: &[u8], name: &str) -> Result<Vec<FixationRow>,
     let mut r = csv::ReaderBuilder::new().from_reader(bytes);
     let headers = r.headers().map_err(|e| format!("{name}:1: {e}"))?.clone();
     for needed in HEADER {
-        if !headers.iter().any(|h| h == needed) {
+        if !headers.iter().any(|h| h == *needed) {
             return Err(format!(
                 "{name}:1: no `{needed}` column; is this a fixations.csv written by `meshgaze ingest`? (columns: {})",
                 headers.iter().collect::<Vec<_>>().join(",")

@@ -13,7 +13,9 @@ use super::fixations::{
 use super::model::{EyeSample, Recording, SmiFormat};
 use super::quality::{quality, QualityRow};
 use super::read_smi;
-use super::stimulus_messages::{classify_messages, ClassifiedMessage, Segmentation};
+use super::stimulus_messages::{
+    classify_messages, ClassifiedMessage, Segmentation, StimulusPattern,
+};
 
 /// The protocol's fixation filter (paper §4: drop the first and last two, keep the 15 longest).
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -36,6 +38,47 @@ pub struct IngestParams {
     pub detector_params: DetectorParams,
     pub filter: FilterRules,
     pub segmentation: Segmentation,
+}
+
+impl IngestParams {
+    /// The protocol's detector settings, filter and stimulus rules; `pattern` (start, end)
+    /// overrides the protocol's stimulus patterns.
+    pub fn from_protocol(
+        protocol: &crate::stimulus::Protocol,
+        pattern: Option<(&str, Option<&str>)>,
+    ) -> Result<IngestParams, String> {
+        let rules = &protocol.fixations;
+        let (start, end) = match pattern {
+            Some((s, e)) => (Some(s), e),
+            None => (
+                rules.stimulus_pattern.as_deref(),
+                rules.stimulus_end_pattern.as_deref(),
+            ),
+        };
+        let pattern = start.map(|p| StimulusPattern::new(p, end)).transpose()?;
+        Ok(IngestParams {
+            format: None,
+            detector: None,
+            eye: EyePolicy::Best,
+            subject: None,
+            detector_params: DetectorParams {
+                max_dispersion_px: rules.idt_max_dispersion_px,
+                min_duration_ms: rules.min_duration_ms,
+                max_velocity_px_s: rules.ivt_max_velocity_deg_s
+                    * protocol.display.pixels_per_degree(),
+                ..DetectorParams::default()
+            },
+            filter: FilterRules {
+                drop_first: rules.drop_first,
+                drop_last: rules.drop_last,
+                keep_longest: rules.keep_longest,
+            },
+            segmentation: Segmentation {
+                pattern,
+                max_duration_us: Some((protocol.duration_s() * 1e6).round() as i64),
+            },
+        })
+    }
 }
 
 /// One file, ingested.

@@ -13,12 +13,9 @@ use serde::Serialize;
 use super::config::{stem_of, Study, StudyMesh};
 use crate::file_bytes::create_output_dir;
 use crate::gaze::fixation_table::{write_fixations_csv, FixationRow};
-use crate::gaze::fixations::{DetectorParams, EyePolicy};
 use crate::gaze::ingest::{
-    check_one_source_per_subject, ingest_file, write_messages_csv, write_quality_csv, FilterRules,
-    IngestParams,
+    check_one_source_per_subject, ingest_file, write_messages_csv, write_quality_csv, IngestParams,
 };
-use crate::gaze::stimulus_messages::{Segmentation, StimulusPattern};
 use crate::mesh::load_mesh;
 use crate::progress::{Progress, Silent};
 use crate::projection::project_file::{project_files, write_projection, ProjectOptions};
@@ -269,40 +266,12 @@ fn ensure_stimulus(study: &Study, m: &StudyMesh, protocol_hash: &str) -> StepLog
 }
 
 fn ingest_params(study: &Study) -> Result<IngestParams> {
-    let rules = &study.protocol.fixations;
-    let (start, end) = match &study.stimulus_pattern {
-        Some(p) => (Some(p.as_str()), study.stimulus_end_pattern.as_deref()),
-        None => (
-            rules.stimulus_pattern.as_deref(),
-            rules.stimulus_end_pattern.as_deref(),
-        ),
-    };
-    let pattern = start
-        .map(|p| StimulusPattern::new(p, end))
-        .transpose()
-        .map_err(|e| anyhow::anyhow!("{}: {e}", study.file.display()))?;
-    Ok(IngestParams {
-        format: None,
-        detector: None,
-        eye: EyePolicy::Best,
-        subject: None,
-        detector_params: DetectorParams {
-            max_dispersion_px: rules.idt_max_dispersion_px,
-            min_duration_ms: rules.min_duration_ms,
-            max_velocity_px_s: rules.ivt_max_velocity_deg_s
-                * study.protocol.display.pixels_per_degree(),
-            ..DetectorParams::default()
-        },
-        filter: FilterRules {
-            drop_first: rules.drop_first,
-            drop_last: rules.drop_last,
-            keep_longest: rules.keep_longest,
-        },
-        segmentation: Segmentation {
-            pattern,
-            max_duration_us: Some((study.protocol.duration_s() * 1e6).round() as i64),
-        },
-    })
+    let pattern = study
+        .stimulus_pattern
+        .as_deref()
+        .map(|p| (p, study.stimulus_end_pattern.as_deref()));
+    IngestParams::from_protocol(&study.protocol, pattern)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", study.file.display()))
 }
 
 /// Ingests every recording into OUT/ingest; a recording that cannot be read is reported and
