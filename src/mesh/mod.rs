@@ -18,7 +18,7 @@ mod write_ply;
 pub use error::MeshError;
 pub use read::{load_mesh, parse_mesh_bytes, MeshFormat};
 pub use subdivide::subdivide_midpoint;
-pub use write_ply::{write_ply_with_quality, ColorRamp};
+pub use write_ply::{write_ply_with_quality, ColorRamp, ColorScale};
 
 use glam::DVec3;
 use serde::Serialize;

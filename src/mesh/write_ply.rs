@@ -30,8 +30,58 @@ impl ColorRamp {
     }
 }
 
+/// How a map's values become ramp positions: linear between the 1st and 99th percentiles of
+/// its finite values, clamped outside. Curvature-like maps are heavy-tailed; a min–max scale
+/// lets a few extreme vertices push every other one into the bottom colour.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ColorScale {
+    pub lo: f64,
+    pub hi: f64,
+}
+
+impl ColorScale {
+    /// Percentiles used for the ends of the scale.
+    pub const CLIP: (f64, f64) = (0.01, 0.99);
+    /// The words every picture states under it.
+    pub const RULE: &'static str = "colour: blue (1st percentile of the map) to red (99th)";
+
+    pub fn of(values: &[f64]) -> ColorScale {
+        let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+        if v.is_empty() {
+            return ColorScale { lo: 0.0, hi: 1.0 };
+        }
+        v.sort_by(f64::total_cmp);
+        let at = |q: f64| v[((v.len() - 1) as f64 * q).round() as usize];
+        let (mut lo, mut hi) = (at(Self::CLIP.0), at(Self::CLIP.1));
+        if hi <= lo {
+            // A map that is constant over 98% of the vertices: fall back to its full range.
+            lo = v[0];
+            hi = v[v.len() - 1];
+        }
+        ColorScale { lo, hi }
+    }
+
+    /// The ramp position of `x`, in [0, 1].
+    pub fn position(&self, x: f64) -> f64 {
+        if self.hi > self.lo {
+            ((x - self.lo) / (self.hi - self.lo)).clamp(0.0, 1.0)
+        } else {
+            0.0
+        }
+    }
+
+    /// Colours of every value.
+    pub fn colors(&self, values: &[f64]) -> Vec<[u8; 3]> {
+        values
+            .iter()
+            .map(|&x| ColorRamp.rgb(self.position(x)))
+            .collect()
+    }
+}
+
 /// Writes a binary little-endian PLY with a per-vertex float `quality` (MeshLab shows it
-/// with Render > Color > Per Vertex Quality) and the ramp colour of the quality.
+/// with Render > Color > Per Vertex Quality; it keeps the raw values) and the ramp colour of the
+/// quality under [`ColorScale`].
 pub fn write_ply_with_quality(
     path: &Path,
     mesh: &Mesh,
@@ -60,12 +110,12 @@ pub fn write_ply_with_quality(
     writeln!(out, "element face {}", mesh.triangles.len())?;
     writeln!(out, "property list uchar int vertex_indices")?;
     writeln!(out, "end_header")?;
-    let ramp = ColorRamp;
-    for (p, &q) in mesh.positions.iter().zip(quality) {
+    let colors = ColorScale::of(quality).colors(quality);
+    for ((p, &q), c) in mesh.positions.iter().zip(quality).zip(&colors) {
         for v in [p.x as f32, p.y as f32, p.z as f32, q as f32] {
             out.write_all(&v.to_le_bytes())?;
         }
-        out.write_all(&ramp.rgb(q))?;
+        out.write_all(c)?;
     }
     for t in &mesh.triangles {
         out.write_all(&[3u8])?;

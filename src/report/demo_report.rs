@@ -319,10 +319,11 @@ For real data, replace step 2 with your lab's SMI exports (<code>meshgaze ingest
             );
             let _ = write!(
                 html,
-                "<figure><img alt=\"{0}\" src=\"{1}\"><figcaption>{0}, viewpoint {2}</figcaption></figure>",
+                "<figure><img alt=\"{0}\" src=\"{1}\"><figcaption>{0}, viewpoint {2}; {3}</figcaption></figure>",
                 esc(name),
                 png_data_uri(&img)?,
-                view + 1
+                view + 1,
+                crate::mesh::ColorScale::RULE
             );
         }
     }

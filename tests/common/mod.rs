@@ -24,11 +24,17 @@ pub fn bunny_res3() -> Mesh {
 }
 
 /// `../shared/data` beside the repo, or None with a loud message: tests that need it then
-/// report that they did not run instead of passing silently.
+/// report that they did not run instead of passing silently. Under CI (`CI` set), where
+/// ../shared is always laid beside the clone, a missing folder fails the test instead.
 pub fn shared_data(test: &str) -> Option<PathBuf> {
     let p = repo_root().join("../shared/data");
     if p.join("meshes").is_dir() {
         Some(p)
+    } else if std::env::var_os("CI").is_some() {
+        panic!(
+            "{test}: {} is missing, and CI always has it: the test cannot be skipped here",
+            p.display()
+        );
     } else {
         eprintln!(
             "\n!!!! SKIPPED {test}: {} is missing. This test needs the shared real data; \
