@@ -279,6 +279,16 @@ fn a_stimulus_whose_files_changed_is_refused() {
     let e = load_stimulus(&stim, None).err().expect("refused");
     assert!(e.contains("protocol"), "{e}");
     std::fs::write(&manifest, &m).unwrap();
+    // An edited timeline: one matrix entry of one frame.
+    let timeline = stim.join("timeline.csv");
+    let t = std::fs::read_to_string(&timeline).unwrap();
+    let row = t.lines().nth(5).unwrap();
+    let (head, tail) = row.rsplit_once(',').unwrap();
+    let edited_row = format!("{head},{}", if tail == "0" { "1" } else { "0" });
+    std::fs::write(&timeline, t.replacen(row, &edited_row, 1)).unwrap();
+    let e = load_stimulus(&stim, None).err().expect("refused");
+    assert!(e.contains("timeline"), "{e}");
+    std::fs::write(&timeline, &t).unwrap();
     assert!(
         load_stimulus(&stim, None).is_ok(),
         "restored files load again"

@@ -94,7 +94,8 @@ fn shared_vr_truth_files_read_with_their_flags() {
     assert!(m.positive_rule.contains("flag"));
 }
 
-/// A planted case: fixations on one end of a cylinder, maps that know it, do not, or invert it.
+/// A planted case: fixations on the highest vertices of the bunny (its ears), maps that know it
+/// (height) or invert it.
 #[test]
 fn scoring_ranks_a_perfect_map_above_chance_and_an_inverted_one_below() {
     let mesh = common::bunny_res3();
@@ -144,7 +145,23 @@ fn scoring_ranks_a_perfect_map_above_chance_and_an_inverted_one_below() {
         .iter()
         .find(|s| s.method == "height")
         .unwrap();
-    assert!(summary.auc_judd_peak >= summary.auc_judd_unblurred);
+    // The summary's peak is the maximum of the curve above, at the blur where it is reached,
+    // with the chance map's value at that same blur.
+    let curve = [
+        (0.0, get("height", "auc_judd", 0.0)),
+        (0.05, get("height", "auc_judd", 0.05)),
+    ];
+    let best = if curve[1].1 > curve[0].1 {
+        curve[1]
+    } else {
+        curve[0]
+    };
+    assert_eq!((summary.auc_judd_peak_blur, summary.auc_judd_peak), best);
+    assert_eq!(
+        summary.chance_auc_judd_at_peak,
+        get(CHANCE, "auc_judd", best.0)
+    );
+    assert_eq!(summary.auc_judd_unblurred, curve[0].1);
 }
 
 proptest! {
