@@ -165,7 +165,21 @@ pub fn ingest_file(path: &Path, params: &IngestParams) -> Result<IngestedFile, S
         params.eye,
         &params.detector_params,
         &params.segmentation,
-    )?;
+    )
+    .map_err(|e| {
+        // Say why the rows were unusable: that is usually why nothing was found.
+        let first = rec.rows.unusable.iter().min_by_key(|(_, f)| f.line);
+        match first {
+            Some((reason, f)) => format!(
+                "{e} ({} unusable lines; the first: {reason} at {}:{}:{})",
+                rec.rows.unusable_total(),
+                path.display(),
+                f.line,
+                f.column
+            ),
+            None => e,
+        }
+    })?;
     let rules = params.filter;
     apply_protocol_filter(
         &mut fx,
