@@ -7,11 +7,10 @@ use clap::Args;
 use serde::Serialize;
 
 use meshgaze::file_bytes::create_output_dir;
-use meshgaze::gaze::fixation_table::{write_fixations_csv, FixationRow};
 use meshgaze::gaze::fixations::{Detector, DetectorParams, EyePolicy, Fate, Fixation};
 use meshgaze::gaze::ingest::{
-    check_one_source_per_subject, ingest_file, message_kind_counts, write_messages_csv,
-    write_quality_csv, write_samples_rows, IngestParams, IngestedFile, SAMPLES_CSV_HEADER,
+    check_one_source_per_subject, ingest_file, message_kind_counts, write_ingest_tables,
+    write_samples_rows, IngestParams, IngestedFile, SAMPLES_CSV_HEADER,
 };
 use meshgaze::gaze::model::{Header, RowAccount};
 use meshgaze::gaze::stimulus_messages::{classify_messages, message_census, stimulus_segments};
@@ -274,19 +273,12 @@ pub fn run(args: IngestArgs) -> Result<()> {
     if all_fix.is_empty() && !args.quiet {
         eprintln!("warning: no fixations found");
     }
-    let p = out.join("fixations.csv");
-    let rows: Vec<FixationRow> = all_fix.iter().map(|f| FixationRow::from(*f)).collect();
-    write_fixations_csv(create(&p)?, &rows).map_err(|e| anyhow::anyhow!("{}: {e}", p.display()))?;
-    let m = out.join("messages.csv");
-    write_messages_csv(create(&m)?, &files).map_err(|e| anyhow::anyhow!("{}: {e}", m.display()))?;
-    let q = out.join("quality.csv");
-    let mut w = create(&q)?;
-    let quality: Vec<_> = files
-        .iter()
-        .flat_map(|f| f.quality.iter().cloned())
-        .collect();
-    write_quality_csv(&mut w, &quality)?;
-    w.flush()?;
+    write_ingest_tables(&out, &files).map_err(anyhow::Error::msg)?;
+    let (p, m, q) = (
+        out.join("fixations.csv"),
+        out.join("messages.csv"),
+        out.join("quality.csv"),
+    );
     let rules = &protocol.fixations;
     let sidecar = Sidecar {
         provenance: Provenance::new(inputs),

@@ -7,6 +7,7 @@ use std::path::{Path, PathBuf};
 
 use serde::Serialize;
 
+use super::fixation_table::{write_fixations_csv, FixationRow};
 use super::fixations::{
     apply_protocol_filter, fixations, Detector, DetectorParams, EyePolicy, Fate, Fixation,
 };
@@ -344,4 +345,32 @@ pub fn message_kind_counts(messages: &[ClassifiedMessage]) -> BTreeMap<&'static 
         *counts.entry(m.kind.name()).or_insert(0) += 1;
     }
     counts
+}
+
+/// Writes fixations.csv, messages.csv and quality.csv of `files` into `dir`; returns the
+/// number of fixations.
+pub fn write_ingest_tables(dir: &Path, files: &[IngestedFile]) -> Result<usize, String> {
+    let create = |name: &str| -> Result<(PathBuf, std::io::BufWriter<std::fs::File>), String> {
+        let p = dir.join(name);
+        let f =
+            std::fs::File::create(&p).map_err(|e| format!("cannot create {}: {e}", p.display()))?;
+        Ok((p, std::io::BufWriter::new(f)))
+    };
+    let rows: Vec<FixationRow> = files
+        .iter()
+        .flat_map(|f| f.fixations.iter().map(FixationRow::from))
+        .collect();
+    let (p, w) = create("fixations.csv")?;
+    write_fixations_csv(w, &rows).map_err(|e| format!("{}: {e}", p.display()))?;
+    let (p, w) = create("messages.csv")?;
+    write_messages_csv(w, files).map_err(|e| format!("{}: {e}", p.display()))?;
+    let (p, mut w) = create("quality.csv")?;
+    let quality: Vec<QualityRow> = files
+        .iter()
+        .flat_map(|f| f.quality.iter().cloned())
+        .collect();
+    write_quality_csv(&mut w, &quality)
+        .and_then(|_| w.flush())
+        .map_err(|e| format!("{}: {e}", p.display()))?;
+    Ok(rows.len())
 }

@@ -12,9 +12,8 @@ use serde::Serialize;
 
 use super::config::{stem_of, Study, StudyMesh};
 use crate::file_bytes::create_output_dir;
-use crate::gaze::fixation_table::{write_fixations_csv, FixationRow};
 use crate::gaze::ingest::{
-    check_one_source_per_subject, ingest_file, write_messages_csv, write_quality_csv, IngestParams,
+    check_one_source_per_subject, ingest_file, write_ingest_tables, IngestParams,
 };
 use crate::mesh::load_mesh;
 use crate::progress::{Progress, Silent};
@@ -313,36 +312,7 @@ fn ingest_all(study: &Study, protocol_hash: &str) -> Result<(StepLog, Vec<String
         anyhow::bail!("{e}");
     }
     create_output_dir(&dir)?;
-    let rows: Vec<FixationRow> = files
-        .iter()
-        .flat_map(|f| f.fixations.iter().map(FixationRow::from))
-        .collect();
-    let p = dir.join("fixations.csv");
-    write_fixations_csv(
-        std::io::BufWriter::new(
-            std::fs::File::create(&p).with_context(|| format!("cannot create {}", p.display()))?,
-        ),
-        &rows,
-    )
-    .map_err(anyhow::Error::msg)?;
-    let m = dir.join("messages.csv");
-    write_messages_csv(
-        std::io::BufWriter::new(
-            std::fs::File::create(&m).with_context(|| format!("cannot create {}", m.display()))?,
-        ),
-        &files,
-    )
-    .map_err(anyhow::Error::msg)?;
-    let q = dir.join("quality.csv");
-    let mut w = std::io::BufWriter::new(
-        std::fs::File::create(&q).with_context(|| format!("cannot create {}", q.display()))?,
-    );
-    let quality: Vec<_> = files
-        .iter()
-        .flat_map(|f| f.quality.iter().cloned())
-        .collect();
-    write_quality_csv(&mut w, &quality)?;
-    w.flush()?;
+    let fixations = write_ingest_tables(&dir, &files).map_err(anyhow::Error::msg)?;
     std::fs::write(
         &problems_file,
         problems
@@ -356,7 +326,7 @@ fn ingest_all(study: &Study, protocol_hash: &str) -> Result<(StepLog, Vec<String
             "*",
             "ingest",
             "done",
-            format!("{} recordings, {} fixations", files.len(), rows.len()),
+            format!("{} recordings, {fixations} fixations", files.len()),
         ),
         problems,
     ))
