@@ -151,10 +151,20 @@ fn list_messages(args: &IngestArgs, params: &IngestParams) -> Result<()> {
         let rec = read_smi(file, args.format)?;
         let messages = classify_messages(&rec, &params.segmentation);
         println!("{}: {} messages", file.display(), messages.len());
-        println!("{:>7}  {:<12}  {:<28}  text", "count", "kind", "stimulus");
-        for (text, n, kind, stimulus) in message_census(&messages) {
+        let census = message_census(&messages);
+        let width = census
+            .iter()
+            .map(|c| c.3.as_deref().map_or(0, |s| s.chars().count()))
+            .max()
+            .unwrap_or(0)
+            .max("stimulus".len());
+        println!(
+            "{:>7}  {:<12}  {:<width$}  text",
+            "count", "kind", "stimulus"
+        );
+        for (text, n, kind, stimulus) in census {
             println!(
-                "{n:>7}  {:<12}  {:<28}  {text}",
+                "{n:>7}  {:<12}  {:<width$}  {text}",
                 kind.name(),
                 stimulus.unwrap_or_default()
             );
