@@ -17,9 +17,11 @@ use meshgaze::saliency::{compute_saliency, sparse_metric_saliency, Method, SmsEx
 /// Prints a Markdown table; --csv also writes it as CSV.
 #[derive(Debug, Args)]
 pub struct BenchArgs {
-    /// Folder with the shared meshes (meshes/classic/...).
-    #[arg(long, default_value = "../shared/data")]
-    pub data: PathBuf,
+    /// Folder with the shared meshes (meshes/classic/...) [default: $MESHGAZE_DATA, else
+    /// ../shared/data from the current directory, else ../shared/data beside the source tree
+    /// meshgaze was built from].
+    #[arg(long)]
+    pub data: Option<PathBuf>,
     /// Repeat each case this many times and keep the fastest total.
     #[arg(long, default_value_t = 1)]
     pub repeat: usize,
@@ -145,19 +147,45 @@ fn run_case(name: &str, data: &Path, repeat: usize) -> Result<CaseResult> {
     Ok(best)
 }
 
+/// The data folder: --data, else the first default place holding meshes/classic; the error
+/// lists every place looked in.
+fn data_folder(given: Option<&std::path::Path>) -> Result<PathBuf> {
+    let candidates: Vec<PathBuf> = match given {
+        Some(d) => vec![d.to_path_buf()],
+        None => std::env::var_os("MESHGAZE_DATA")
+            .map(PathBuf::from)
+            .into_iter()
+            .chain([
+                PathBuf::from("../shared/data"),
+                PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data"),
+            ])
+            .collect(),
+    };
+    if let Some(d) = candidates
+        .iter()
+        .find(|d| d.join("meshes/classic").is_dir())
+    {
+        return Ok(d.clone());
+    }
+    let looked: Vec<String> = candidates
+        .iter()
+        .map(|d| {
+            let p = d.join("meshes/classic");
+            std::path::absolute(&p).unwrap_or(p).display().to_string()
+        })
+        .collect();
+    bail!(
+        "the benchmark meshes were not found; looked for {}: pass --data with the shared data folder (or set MESHGAZE_DATA)",
+        looked.join(", ")
+    )
+}
+
 pub fn run(args: BenchArgs) -> Result<()> {
+    let data = data_folder(args.data.as_deref())?;
     if let Some(case) = &args.case {
-        let r = run_case(case, &args.data, args.repeat)?;
+        let r = run_case(case, &data, args.repeat)?;
         println!("{}", serde_json::to_string(&r)?);
         return Ok(());
-    }
-    if !args.data.join("meshes/classic").is_dir() {
-        let looked = std::path::absolute(args.data.join("meshes/classic"))
-            .unwrap_or_else(|_| args.data.join("meshes/classic"));
-        bail!(
-            "the benchmark meshes are not where meshgaze looked ({} does not exist; --data defaults to ../shared/data, relative to the current directory): pass --data with the shared data folder",
-            looked.display()
-        );
     }
     let exe = std::env::current_exe().context("cannot find the meshgaze executable")?;
     let threads = rayon::current_num_threads();
@@ -173,7 +201,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 &args.repeat.to_string(),
                 "--data",
             ])
-            .arg(&args.data)
+            .arg(&data)
             .output()
             .context("cannot run the bench case")?;
         if !out.status.success() {
@@ -221,9 +249,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
         }
         println!("{line}");
     }
-    bench_smi_parse(&args.data)?;
+    bench_smi_parse(&data)?;
     if !args.skip_stimulus {
-        bench_stimulus(&args.data)?;
+        bench_stimulus(&data)?;
     }
     println!(
         "\nLoading (not counted above): {}",
