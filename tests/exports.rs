@@ -1,6 +1,8 @@
 //! Exports from other labs (issues 12 and 17): BeGaze variants built from their documented
 //! layouts, recordings whose messages are not clean stimulus names, the protocol filter with a
 //! known answer, and the binary run from outside the repository.
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -10,7 +12,7 @@ use meshgaze::gaze::fixations::{
 use meshgaze::gaze::ingest::{
     check_one_source_per_subject, ingest_file, FilterRules, IngestParams,
 };
-use meshgaze::gaze::model::{EyeSample, Header, Message, Recording, Sample, SmiFormat};
+use meshgaze::gaze::model::{EyeSample, Header, Message, Recording, SmiFormat};
 use meshgaze::gaze::stimulus_messages::{classify_messages, MessageKind, Segmentation};
 use meshgaze::gaze::writers::write_samples_a;
 use meshgaze::gaze::{detect_format, parse_smi};
@@ -280,17 +282,7 @@ fn recording_with_messages(messages: &[(i64, &str)]) -> Recording {
             pupil: Some(3.5),
             valid,
         };
-        samples.push(Sample {
-            time_us: t,
-            trial: 1,
-            left: Some(e),
-            right: Some(e),
-            binocular: None,
-            binocular_event: None,
-            left_event: None,
-            right_event: None,
-            stimulus: None,
-        });
+        samples.push(common::both_eyes_sample(t, e));
         t += 4000;
         if t % 400_000 == 0 {
             k += 1;

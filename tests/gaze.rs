@@ -288,7 +288,7 @@ mod fixation_tests {
     use meshgaze::gaze::fixations::{
         apply_protocol_filter, fixations, Detector, DetectorParams, EyePolicy, Fate,
     };
-    use meshgaze::gaze::model::{EyeSample, Header, RowAccount, Sample};
+    use meshgaze::gaze::model::{EyeSample, Header, RowAccount};
 
     /// 250 Hz samples: 300 ms at (100,100), a jump, 500 ms at (400,300), a jump, 200 ms at (700,500).
     fn synthetic() -> Recording {
@@ -307,17 +307,7 @@ mod fixation_tests {
                     pupil: Some(4.0),
                     valid: true,
                 };
-                samples.push(Sample {
-                    time_us: t,
-                    trial: 1,
-                    left: Some(e),
-                    right: Some(e),
-                    binocular: None,
-                    binocular_event: None,
-                    left_event: None,
-                    right_event: None,
-                    stimulus: None,
-                });
+                samples.push(common::both_eyes_sample(t, e));
                 t += 4000;
             }
             t += 40_000; // a 40 ms saccade without samples

@@ -45,6 +45,21 @@ pub fn shared_data(test: &str) -> Option<PathBuf> {
     }
 }
 
+/// A trial-1 sample with the same gaze for both eyes and nothing else exported.
+pub fn both_eyes_sample(time_us: i64, e: meshgaze::gaze::EyeSample) -> meshgaze::gaze::Sample {
+    meshgaze::gaze::Sample {
+        time_us,
+        trial: 1,
+        left: Some(e),
+        right: Some(e),
+        binocular: None,
+        binocular_event: None,
+        left_event: None,
+        right_event: None,
+        stimulus: None,
+    }
+}
+
 /// A rotation from three angles (deterministic, no RNG needed).
 pub fn rotation(a: f64, b: f64, c: f64) -> DMat3 {
     DMat3::from_rotation_z(a) * DMat3::from_rotation_y(b) * DMat3::from_rotation_x(c)
