@@ -223,6 +223,7 @@ pub fn run(args: FeaturesArgs) -> Result<()> {
                 .collect(),
             color,
             dashed: false,
+            band: Vec::new(),
         };
         line_chart_png(
             &path(".eval.png"),

@@ -184,6 +184,7 @@ pub fn run(args: ScoreArgs) -> Result<()> {
             positives: score.positives,
             fixations: score.fixations,
             human_splits: score.human_splits,
+            chance_auc_judd: score.chance_auc_judd.clone(),
             seconds_per_method: seconds,
             summaries: score.summaries,
         });

@@ -10,6 +10,8 @@ pub struct Series {
     pub points: Vec<(f64, f64)>,
     pub color: RGBColor,
     pub dashed: bool,
+    /// A shaded interval (x, low, high) drawn under the line; empty for none.
+    pub band: Vec<(f64, f64, f64)>,
 }
 
 /// Distinct colours for methods, in order.
@@ -60,6 +62,19 @@ pub fn line_chart_png(path: &Path, chart: &Chart, series: &[Series]) -> Result<(
         .label_style(("sans-serif", 15))
         .draw()
         .map_err(|e| err(&e))?;
+    for s in series.iter().filter(|s| !s.band.is_empty()) {
+        let outline: Vec<(f64, f64)> = s
+            .band
+            .iter()
+            .map(|b| (b.0, b.2))
+            .chain(s.band.iter().rev().map(|b| (b.0, b.1)))
+            .collect();
+        c.draw_series(std::iter::once(Polygon::new(
+            outline,
+            s.color.mix(0.18).filled(),
+        )))
+        .map_err(|e| err(&e))?;
+    }
     for s in series {
         let color = s.color;
         let style = color.stroke_width(if s.dashed { 1 } else { 2 });

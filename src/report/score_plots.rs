@@ -6,7 +6,7 @@ use anyhow::Result;
 use plotters::style::RGBColor;
 
 use super::plot::{line_chart_png, Chart, Series, PALETTE};
-use crate::scoring::{gini_index, lorenz_curve, MeshScore, CHANCE, HUMAN};
+use crate::scoring::{gini_index, lorenz_curve, MeshScore, CHANCE, CHANCE_HIGH, CHANCE_LOW, HUMAN};
 
 /// AUC-Judd over blur (methods, chance dashed, human ceiling in black) and Lorenz curves of
 /// the unblurred maps with their Gini index.
@@ -32,13 +32,23 @@ pub fn write_score_plots(
             points: curve(name, "auc_judd"),
             color: PALETTE[k % PALETTE.len()],
             dashed: false,
+            band: Vec::new(),
         })
         .collect();
+    let (low, high) = (
+        curve(CHANCE_LOW, "auc_judd"),
+        curve(CHANCE_HIGH, "auc_judd"),
+    );
     series.push(Series {
-        name: "chance (random map)".into(),
+        name: "chance: mean and 95% of random maps".into(),
         points: curve(CHANCE, "auc_judd"),
         color: RGBColor(128, 128, 128),
         dashed: true,
+        band: low
+            .iter()
+            .zip(&high)
+            .map(|(l, h)| (l.0, l.1, h.1))
+            .collect(),
     });
     let human = curve(HUMAN, "auc_judd");
     if !human.is_empty() {
@@ -47,11 +57,17 @@ pub fn write_score_plots(
             points: human,
             color: RGBColor(0, 0, 0),
             dashed: false,
+            band: Vec::new(),
         });
     }
     let lowest = series
         .iter()
-        .flat_map(|s| s.points.iter().map(|p| p.1))
+        .flat_map(|s| {
+            s.points
+                .iter()
+                .map(|p| p.1)
+                .chain(s.band.iter().map(|b| b.1))
+        })
         .fold(0.5f64, f64::min);
     let x_max = series
         .iter()
@@ -75,6 +91,7 @@ pub fn write_score_plots(
         points: vec![(0.0, 0.0), (1.0, 1.0)],
         color: RGBColor(128, 128, 128),
         dashed: true,
+        band: Vec::new(),
     }];
     for (k, (name, values)) in maps.iter().enumerate() {
         let clipped: Vec<f64> = values.iter().map(|v| v.max(0.0)).collect();
@@ -88,6 +105,7 @@ pub fn write_score_plots(
                 points: thin,
                 color: PALETTE[k % PALETTE.len()],
                 dashed: false,
+                band: Vec::new(),
             });
         }
     }

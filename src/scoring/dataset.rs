@@ -6,7 +6,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 
-use super::{MethodSummary, ScoreRow};
+use super::{quantile, MethodSummary, ScoreRow};
 use crate::mesh::{LoadReport, MeshFormat};
 
 /// A mesh's name: its file name up to the first dot (`bunny.ply.gz` → `bunny`).
@@ -26,6 +26,9 @@ pub struct MeshEntry {
     pub human_splits: usize,
     pub seconds_per_method: Vec<(String, f64)>,
     pub summaries: Vec<MethodSummary>,
+    /// Every chance map's AUC-Judd per blur ([`crate::scoring::MeshScore::chance_auc_judd`]).
+    #[serde(skip)]
+    pub chance_auc_judd: Vec<(f64, Vec<f64>)>,
 }
 
 /// Pairs DIR/meshes/NAME.* with DIR/truth/NAME[_.]*.
@@ -90,12 +93,37 @@ pub fn mean_summaries(entries: &[MeshEntry]) -> Vec<MethodSummary> {
             let mean = |f: &dyn Fn(&MethodSummary) -> f64| {
                 all.iter().map(|x| f(x)).sum::<f64>() / all.len() as f64
             };
+            // The band of the mean at each mesh's own peak blur: draw j averaged over meshes.
+            let mut draw_means: Vec<f64> = Vec::new();
+            for e in entries {
+                let Some(x) = e.summaries.iter().find(|x| x.method == s.method) else {
+                    continue;
+                };
+                let draws = e
+                    .chance_auc_judd
+                    .iter()
+                    .find(|(b, _)| *b == x.auc_judd_peak_blur)
+                    .map(|(_, d)| d.as_slice())
+                    .unwrap_or(&[]);
+                if draw_means.is_empty() {
+                    draw_means = vec![0.0; draws.len()];
+                }
+                if draws.len() != draw_means.len() {
+                    draw_means.clear();
+                    break;
+                }
+                for (a, d) in draw_means.iter_mut().zip(draws) {
+                    *a += d / all.len() as f64;
+                }
+            }
             MethodSummary {
                 method: s.method.clone(),
                 auc_judd_unblurred: mean(&|x| x.auc_judd_unblurred),
                 auc_judd_peak: mean(&|x| x.auc_judd_peak),
                 auc_judd_peak_blur: mean(&|x| x.auc_judd_peak_blur),
                 chance_auc_judd_at_peak: mean(&|x| x.chance_auc_judd_at_peak),
+                chance_auc_judd_low_at_peak: quantile(&draw_means, 0.025),
+                chance_auc_judd_high_at_peak: quantile(&draw_means, 0.975),
                 lcc_unblurred: mean(&|x| x.lcc_unblurred),
                 lcc_peak: mean(&|x| x.lcc_peak),
                 lcc_peak_blur: mean(&|x| x.lcc_peak_blur),
@@ -128,16 +156,18 @@ pub fn write_score_rows(
 /// The Markdown table of AUC-Judd and LCC, unblurred and at the peak, per mesh and mean.
 pub fn score_table_markdown(entries: &[MeshEntry], mean: &[MethodSummary]) -> String {
     let mut t = String::new();
-    t.push_str("| mesh | method | AUC-Judd σ=0 | AUC-Judd peak (σ_b) | chance at that σ_b | LCC σ=0 | LCC peak (σ_b) |");
-    println!("|---|---|---:|---:|---:|---:|---:|\n");
+    t.push_str("| mesh | method | AUC-Judd σ=0 | AUC-Judd peak (σ_b) | chance at that σ_b [95%] | LCC σ=0 | LCC peak (σ_b) |\n");
+    t.push_str("|---|---|---:|---:|---:|---:|---:|\n");
     let row = |t: &mut String, mesh: &str, s: &MethodSummary| {
         t.push_str(&format!(
-            "| {mesh} | {} | {:.3} | {:.3} ({:.2}) | {:.3} | {:.3} | {:.3} ({:.2}) |\n",
+            "| {mesh} | {} | {:.3} | {:.3} ({:.2}) | {:.3} [{:.3}, {:.3}] | {:.3} | {:.3} ({:.2}) |\n",
             s.method,
             s.auc_judd_unblurred,
             s.auc_judd_peak,
             s.auc_judd_peak_blur,
             s.chance_auc_judd_at_peak,
+            s.chance_auc_judd_low_at_peak,
+            s.chance_auc_judd_high_at_peak,
             s.lcc_unblurred,
             s.lcc_peak,
             s.lcc_peak_blur

@@ -1,6 +1,7 @@
 //! Scores saliency maps against human ground truth on one mesh: every metric at every blur
-//! level, beside a seeded chance map blurred the same way and, for fixation sets with subject
-//! ids, the split-half human ceiling (paper §5.3, Fig. 6).
+//! level, beside a chance band (seeded random maps blurred the same way: their mean and 95%
+//! interval) and, for fixation sets with subject ids, the split-half human ceiling (paper §5.3,
+//! Fig. 6).
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -34,6 +35,8 @@ pub struct ScoreParams {
     pub human_random_splits: usize,
     pub bounding_box: BoundingBox,
     pub kernel: BlurKernel,
+    /// Random maps behind the chance band; the first is the single chance map of old.
+    pub chance_maps: usize,
 }
 
 impl Default for ScoreParams {
@@ -46,6 +49,7 @@ impl Default for ScoreParams {
             human_random_splits: 100,
             bounding_box: BoundingBox::Oriented,
             kernel: BlurKernel::Euclidean,
+            chance_maps: 20,
         }
     }
 }
@@ -64,8 +68,11 @@ pub struct MethodSummary {
     pub auc_judd_unblurred: f64,
     pub auc_judd_peak: f64,
     pub auc_judd_peak_blur: f64,
-    /// The chance map's AUC-Judd at the same blur as this method's peak.
+    /// The chance maps' mean AUC-Judd at the same blur as this method's peak, and the 2.5th
+    /// and 97.5th percentiles of their values there.
     pub chance_auc_judd_at_peak: f64,
+    pub chance_auc_judd_low_at_peak: f64,
+    pub chance_auc_judd_high_at_peak: f64,
     pub lcc_unblurred: f64,
     pub lcc_peak: f64,
     pub lcc_peak_blur: f64,
@@ -81,9 +88,74 @@ pub struct MeshScore {
     pub human_splits: usize,
     pub positives: usize,
     pub fixations: usize,
+    /// AUC-Judd of every chance map at every blur, (σ_b, one value per map): what a band over
+    /// several meshes is computed from (see [`chance_band_of_mean`]).
+    pub chance_auc_judd: Vec<(f64, Vec<f64>)>,
 }
 
+/// The chance band of a mean over meshes: draw j of every mesh is averaged into one sample of
+/// the mean (draws are independent across meshes), then the samples give the mean and the
+/// 2.5th–97.5th percentiles at each blur. Meshes must share one blur grid and map count.
+/// Returns (σ_b, mean, low, high).
+pub fn chance_band_of_mean(
+    meshes: &[&[(f64, Vec<f64>)]],
+) -> Result<Vec<(f64, f64, f64, f64)>, String> {
+    let Some(first) = meshes.first() else {
+        return Ok(Vec::new());
+    };
+    let mut band = Vec::new();
+    for (b, (sigma, draws)) in first.iter().enumerate() {
+        let mut sums = vec![0.0; draws.len()];
+        for m in meshes {
+            let (s, d) = m
+                .get(b)
+                .ok_or("meshes were scored over different blur grids")?;
+            if s != sigma || d.len() != draws.len() {
+                return Err(
+                    "meshes were scored over different blur grids or chance map counts".into(),
+                );
+            }
+            for (a, x) in sums.iter_mut().zip(d) {
+                *a += x;
+            }
+        }
+        let means: Vec<f64> = sums.iter().map(|x| x / meshes.len() as f64).collect();
+        let mean = means.iter().sum::<f64>() / means.len() as f64;
+        band.push((
+            *sigma,
+            mean,
+            quantile(&means, 0.025),
+            quantile(&means, 0.975),
+        ));
+    }
+    Ok(band)
+}
+
+/// The chance band: mean, 2.5th and 97.5th percentiles over the random maps, per metric and blur.
 pub const CHANCE: &str = "chance";
+pub const CHANCE_LOW: &str = "chance_p2.5";
+pub const CHANCE_HIGH: &str = "chance_p97.5";
+
+/// The q-quantile (0..=1) of `values` by linear interpolation between order statistics
+/// (Hyndman–Fan type 7, numpy's default); NaN when empty or when any value is NaN.
+pub fn quantile(values: &[f64], q: f64) -> f64 {
+    if values.is_empty() || values.iter().any(|v| v.is_nan()) {
+        return f64::NAN;
+    }
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    let h = q.clamp(0.0, 1.0) * (v.len() - 1) as f64;
+    let (lo, hi) = (h.floor() as usize, h.ceil() as usize);
+    v[lo] + (h - lo as f64) * (v[hi] - v[lo])
+}
+
+/// `count` random maps with values uniform in [0, 1), drawn in sequence from one seeded stream.
+pub fn chance_maps(n: usize, count: usize, seed: u64) -> Vec<Vec<f64>> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    (0..count)
+        .map(|_| (0..n).map(|_| rng.random::<f64>()).collect())
+        .collect()
+}
 pub const HUMAN: &str = "human";
 
 /// Subject index sets (predictor, target) for the split-half ceiling.
@@ -186,8 +258,10 @@ pub fn score_mesh(
     let weights = (params.weighting == Weighting::Area).then_some(areas.as_slice());
     let positive = truth.positive(n);
     let fixated = truth.fixated();
-    let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
-    let chance: Vec<f64> = (0..n).map(|_| rng.random::<f64>()).collect();
+    if params.chance_maps == 0 {
+        return Err("the chance band needs at least one random map".to_string());
+    }
+    let chance = chance_maps(n, params.chance_maps, params.seed);
     // Per-subject fixation counts, for density maps and the human ceiling.
     let (subject_counts, splits) = match truth {
         GroundTruth::Fixations(f) => {
@@ -208,14 +282,15 @@ pub fn score_mesh(
         GroundTruth::VertexMap(_) => (Vec::new(), Vec::new()),
     };
     let mut rows = Vec::new();
+    let mut chance_auc_judd = Vec::new();
     progress.start("scoring over blur", params.blur_sigmas.len() as u64);
     for &sigma in &params.blur_sigmas {
         let mut inputs: Vec<&[f64]> = maps.iter().map(|(_, m)| m.as_slice()).collect();
-        inputs.push(&chance);
+        inputs.extend(chance.iter().map(|c| c.as_slice()));
         inputs.extend(subject_counts.iter().map(|c| c.as_slice()));
         let blurred = blur.blur(&inputs, sigma)?;
         let (method_maps, rest) = blurred.split_at(maps.len());
-        let (chance_map, subject_maps) = rest.split_first().expect("chance map");
+        let (chance_blurred, subject_maps) = rest.split_at(chance.len());
         let density: Vec<f64> = match truth {
             GroundTruth::VertexMap(m) => m.values.clone(),
             GroundTruth::Fixations(_) => {
@@ -228,29 +303,45 @@ pub fn score_mesh(
                 d
             }
         };
-        let names = maps.iter().map(|(name, _)| name.as_str()).chain([CHANCE]);
-        for (name, map) in names.zip(method_maps.iter().chain([chance_map])) {
-            let mut push = |metric: &'static str, value: f64| {
-                rows.push(ScoreRow {
-                    method: name.to_string(),
-                    metric,
-                    blur: sigma,
-                    value,
-                })
-            };
-            push("auc_judd", auc_judd(map, &positive, weights));
-            push(
-                "auc_borji",
-                auc_borji(map, &fixated, weights, params.borji_splits, params.seed),
-            );
-            push("lcc", lcc(map, &density, weights));
-            push("nss", nss(map, &fixated, weights));
-            push("sim", sim(map, &density, weights));
-            push("kl", kl_divergence(map, &density, weights));
-            push(
-                "gini",
-                gini_index(&map.iter().map(|v| v.max(0.0)).collect::<Vec<_>>()),
-            );
+        let metrics_of = |map: &[f64]| -> [(&'static str, f64); 7] {
+            [
+                ("auc_judd", auc_judd(map, &positive, weights)),
+                (
+                    "auc_borji",
+                    auc_borji(map, &fixated, weights, params.borji_splits, params.seed),
+                ),
+                ("lcc", lcc(map, &density, weights)),
+                ("nss", nss(map, &fixated, weights)),
+                ("sim", sim(map, &density, weights)),
+                ("kl", kl_divergence(map, &density, weights)),
+                (
+                    "gini",
+                    gini_index(&map.iter().map(|v| v.max(0.0)).collect::<Vec<_>>()),
+                ),
+            ]
+        };
+        let mut push = |method: &str, metric: &'static str, value: f64| {
+            rows.push(ScoreRow {
+                method: method.to_string(),
+                metric,
+                blur: sigma,
+                value,
+            })
+        };
+        for ((name, _), map) in maps.iter().zip(method_maps) {
+            for (metric, value) in metrics_of(map) {
+                push(name, metric, value);
+            }
+        }
+        let chance_metrics: Vec<[(&'static str, f64); 7]> =
+            chance_blurred.iter().map(|m| metrics_of(m)).collect();
+        chance_auc_judd.push((sigma, chance_metrics.iter().map(|m| m[0].1).collect()));
+        for (j, (metric, _)) in chance_metrics[0].iter().enumerate() {
+            let values: Vec<f64> = chance_metrics.iter().map(|m| m[j].1).collect();
+            let mean = values.iter().sum::<f64>() / values.len() as f64;
+            push(CHANCE, metric, mean);
+            push(CHANCE_LOW, metric, quantile(&values, 0.025));
+            push(CHANCE_HIGH, metric, quantile(&values, 0.975));
         }
         if !splits.is_empty() {
             let (mut auc_sum, mut lcc_sum, mut nss_sum) = (0.0, 0.0, 0.0);
@@ -314,6 +405,8 @@ pub fn score_mesh(
                 auc_judd_peak: auc_peak,
                 auc_judd_peak_blur: auc_blur,
                 chance_auc_judd_at_peak: value_at(&rows, CHANCE, "auc_judd", auc_blur),
+                chance_auc_judd_low_at_peak: value_at(&rows, CHANCE_LOW, "auc_judd", auc_blur),
+                chance_auc_judd_high_at_peak: value_at(&rows, CHANCE_HIGH, "auc_judd", auc_blur),
                 lcc_unblurred: value_at(&rows, name, "lcc", 0.0),
                 lcc_peak,
                 lcc_peak_blur: lcc_blur,
@@ -328,6 +421,7 @@ pub fn score_mesh(
         human_splits: splits.len(),
         positives: positive.iter().filter(|p| **p).count(),
         fixations: fixated.len(),
+        chance_auc_judd,
     })
 }
 
@@ -346,5 +440,16 @@ mod tests {
         assert_eq!(human_splits(5, 100, 1).len(), 20); // C(5,2) × 2
         assert_eq!(human_splits(12, 50, 1).len(), 100);
         assert!(human_splits(1, 10, 1).is_empty());
+    }
+
+    #[test]
+    fn quantiles_interpolate_between_order_statistics() {
+        let v: Vec<f64> = (1..=20).rev().map(f64::from).collect();
+        assert_eq!(quantile(&v, 0.0), 1.0);
+        assert_eq!(quantile(&v, 1.0), 20.0);
+        assert!((quantile(&v, 0.025) - 1.475).abs() < 1e-12);
+        assert!((quantile(&v, 0.975) - 19.525).abs() < 1e-12);
+        assert!(quantile(&[], 0.5).is_nan());
+        assert!(quantile(&[1.0, f64::NAN], 0.5).is_nan());
     }
 }
