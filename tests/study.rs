@@ -149,6 +149,44 @@ fn a_playlist_study_runs_resumes_shards_and_refuses_a_changed_mesh() {
     let scores = read(dir.join("study/scores.csv"));
     assert!(String::from_utf8_lossy(&scores).lines().count() > 3 * 21);
 
+    // The report: every mesh linked to its own page, the mean curve with the chance band,
+    // data quality for each of the 8 subjects; study.json hashes every mesh and recording.
+    let report = String::from_utf8(read(dir.join("study/report.html"))).unwrap();
+    for m in ["apple", "bunny", "cow"] {
+        assert!(report.contains(&format!("href=\"report/{m}.html\"")), "{m}");
+        let page = String::from_utf8(read(dir.join(format!("study/report/{m}.html")))).unwrap();
+        assert!(page.contains("chance there: mean [95%]"), "{m}");
+        assert_eq!(
+            page.matches("<img alt=").count(),
+            2 + 2 * 2,
+            "{m}: 2 charts, density and mc in 2 views"
+        );
+        let chance =
+            String::from_utf8(read(dir.join(format!("study/scores/chance/{m}.csv")))).unwrap();
+        assert_eq!(
+            chance.lines().count(),
+            1 + 21 * 20,
+            "{m}: 20 draws at 21 blurs"
+        );
+    }
+    assert!(dir.join("study/report/mean_auc.png").exists());
+    let quality = report
+        .split("Data quality per subject")
+        .nth(1)
+        .expect("quality table");
+    assert_eq!(quality.matches("<tr><td>").count(), 8, "{quality}");
+    let study_json: serde_json::Value =
+        serde_json::from_slice(&read(dir.join("study/study.json"))).unwrap();
+    let inputs = study_json["provenance"]["inputs"].as_array().unwrap();
+    assert_eq!(
+        inputs.len(),
+        2 + 3 + 8,
+        "study.toml, protocol, meshes, recordings"
+    );
+    assert!(inputs
+        .iter()
+        .all(|i| i["sha256"].as_str().is_some_and(|h| h.len() == 64)));
+
     // Nothing changed: nothing redone.
     meshgaze(&dir, &["study", "run", "study.toml", "--quiet"]);
     assert!(
@@ -189,6 +227,9 @@ fn a_playlist_study_runs_resumes_shards_and_refuses_a_changed_mesh() {
     );
     meshgaze(&dir, &["study", "merge", "sharded.toml"]);
     assert_eq!(read(dir.join("sharded/scores.csv")), scores);
+    let merged_report = String::from_utf8(read(dir.join("sharded/report.html"))).unwrap();
+    let tables = |r: &str| r.split("<h2>Mean AUC-Judd").nth(1).unwrap().to_string();
+    assert_eq!(tables(&merged_report), tables(&report));
     for m in ["apple", "bunny", "cow"] {
         assert_eq!(
             read(dir.join(format!("sharded/truth/{m}/truth.csv"))),

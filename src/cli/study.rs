@@ -3,6 +3,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
 
+use meshgaze::report::study_report::write_study_report;
 use meshgaze::study::{merge_scores, run_study, template, RunOptions, Study};
 
 use super::progress_bar::Bars;
@@ -136,9 +137,17 @@ pub fn run(args: StudyArgs) -> Result<()> {
         StudyAction::Merge { study } => {
             let s = Study::load(&study)?;
             let n = merge_scores(&s)?;
+            // The shards' problems, as each shard's run logged them.
+            let problems: Vec<String> = std::fs::read_to_string(s.output.join("run.log"))
+                .unwrap_or_default()
+                .lines()
+                .filter_map(|l| l.strip_prefix("problem\t").map(str::to_string))
+                .collect();
+            let report = write_study_report(&s.output, &problems)?;
             eprintln!(
-                "merged the scores of {n} meshes into {}",
-                s.output.join("scores.csv").display()
+                "merged the scores of {n} meshes into {}; report: {}",
+                s.output.join("scores.csv").display(),
+                report.display()
             );
             Ok(())
         }

@@ -4,9 +4,9 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use anyhow::{Context, Result};
-use base64::Engine;
 use image::{Rgb, RgbImage};
 
+use super::html::{esc, file_data_uri, fmt3, png_data_uri, thumbnail};
 use super::map_render::render_map;
 use crate::projection::ProjectionFate;
 use crate::scoring::MeshScore;
@@ -44,38 +44,6 @@ const SUBJECT_COLORS: [[u8; 3]; 8] = [
     [240, 50, 230],
 ];
 
-fn esc(s: &str) -> String {
-    s.replace('&', "&amp;")
-        .replace('<', "&lt;")
-        .replace('>', "&gt;")
-        .replace('"', "&quot;")
-}
-
-fn png_data_uri(img: &RgbImage) -> Result<String> {
-    let mut bytes = Vec::new();
-    img.write_to(
-        &mut std::io::Cursor::new(&mut bytes),
-        image::ImageFormat::Png,
-    )?;
-    Ok(format!(
-        "data:image/png;base64,{}",
-        base64::engine::general_purpose::STANDARD.encode(bytes)
-    ))
-}
-
-fn file_data_uri(path: &Path) -> Result<String> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-    Ok(format!(
-        "data:image/png;base64,{}",
-        base64::engine::general_purpose::STANDARD.encode(bytes)
-    ))
-}
-
-fn thumbnail(img: &RgbImage, width: u32) -> RgbImage {
-    let h = (img.height() as f64 * width as f64 / img.width() as f64).round() as u32;
-    image::imageops::resize(img, width, h, image::imageops::FilterType::Triangle)
-}
-
 fn disc(img: &mut RgbImage, cx: f64, cy: f64, r: f64, color: [u8; 3], ring: bool) {
     let (w, h) = (img.width() as i64, img.height() as i64);
     let r_out = r + 2.0;
@@ -112,14 +80,6 @@ fn cross(img: &mut RgbImage, cx: f64, cy: f64, r: f64, color: [u8; 3]) {
                 }
             }
         }
-    }
-}
-
-fn fmt3(v: f64) -> String {
-    if v.is_finite() {
-        format!("{v:.3}")
-    } else {
-        "–".into()
     }
 }
 

@@ -1,6 +1,9 @@
 //! What a person looks at: the HTML reports, line charts and coloured renders of per-vertex
 //! maps. May import every library stage (it shows their results); no stage imports it.
 pub mod demo_report;
+pub mod html;
 pub mod map_render;
+pub mod mesh_page;
 pub mod plot;
 pub mod score_plots;
+pub mod study_report;

@@ -19,11 +19,13 @@ use crate::mesh::load_mesh;
 use crate::progress::{Progress, Silent};
 use crate::projection::project_file::{project_files, write_projection, ProjectOptions};
 use crate::provenance::{sha256_hex, InputFile};
+use crate::report::mesh_page::{write_mesh_page, MeshPage};
+use crate::report::study_report::{write_chance_draws, write_study_report};
 use crate::saliency::map_file::{compute_and_write_map, read_map, MapOutputs};
 use crate::saliency::SmsParams;
 use crate::scoring::dataset::{write_score_rows, SCORE_CSV_HEADER};
 use crate::scoring::{score_mesh, ScoreParams};
-use crate::stimulus::load::load_stimulus;
+use crate::stimulus::load::{load_stimulus, LoadedStimulus};
 use crate::stimulus::{render_stimulus, FrameImages, StimulusOptions};
 use crate::truth::{build_truth, read_projections, write_truth, TruthParams};
 
@@ -203,6 +205,8 @@ fn finish(
         recordings,
     };
     merge_scores(study)?;
+    write_study_json(study, &run)?;
+    write_study_report(&study.output, &run.problems)?;
     let log = study.output.join("run.log");
     let mut w =
         std::fs::File::create(&log).with_context(|| format!("cannot create {}", log.display()))?;
@@ -213,6 +217,42 @@ fn finish(
         writeln!(w, "problem\t{p}")?;
     }
     Ok(run)
+}
+
+/// OUT/study.json: the provenance of every input (study.toml, protocol, meshes, recordings),
+/// the methods and this run's steps and problems.
+fn write_study_json(study: &Study, run: &StudyRun) -> Result<()> {
+    let mut inputs = vec![InputFile::hash(&study.file)
+        .with_context(|| format!("cannot read {}", study.file.display()))?];
+    inputs.push(InputFile::of_bytes(
+        &format!("protocol {}", study.protocol_name),
+        study.protocol_text.as_bytes(),
+    ));
+    for m in &study.meshes {
+        inputs.push(
+            InputFile::hash(&m.path)
+                .with_context(|| format!("cannot read {}", m.path.display()))?,
+        );
+    }
+    for r in &study.recordings {
+        inputs.push(InputFile::hash(r).with_context(|| format!("cannot read {}", r.display()))?);
+    }
+    #[derive(Serialize)]
+    struct StudyJson<'a> {
+        provenance: crate::provenance::Provenance,
+        methods: Vec<&'static str>,
+        output: String,
+        run: &'a StudyRun,
+    }
+    let json = StudyJson {
+        provenance: crate::provenance::Provenance::new(inputs),
+        methods: study.methods.iter().map(|m| m.name()).collect(),
+        output: study.output.display().to_string(),
+        run,
+    };
+    let path = study.output.join("study.json");
+    std::fs::write(&path, serde_json::to_vec_pretty(&json)?)
+        .with_context(|| format!("cannot write {}", path.display()))
 }
 
 fn log(mesh: &str, step: &str, outcome: &'static str, detail: impl Into<String>) -> StepLog {
@@ -406,8 +446,16 @@ fn mesh_steps(
     name: &str,
     logs: &mut Vec<StepLog>,
 ) -> Result<()> {
-    let out = &study.output;
-    let stim_dir = out.join("stimuli").join(&m.name);
+    let stim = load_unchanged_stimulus(study, m)?;
+    let projected = project_step(study, m, &stim, fixations_csv, name, logs)?;
+    let truth_dir = truth_step(study, m, &stim, &projected, logs)?;
+    let maps = saliency_step(study, m, &stim, logs)?;
+    score_step(study, m, &stim, &truth_dir, &maps, logs)
+}
+
+/// The mesh's stimulus, refused when the mesh file changed after its video was rendered.
+fn load_unchanged_stimulus(study: &Study, m: &StudyMesh) -> Result<LoadedStimulus> {
+    let stim_dir = study.output.join("stimuli").join(&m.name);
     let stim = load_stimulus(&stim_dir, None).map_err(|e| {
         if e.contains("SHA-256") || e.contains("sha256") || e.contains("differs") {
             anyhow::anyhow!(
@@ -425,10 +473,25 @@ fn mesh_steps(
             stim.manifest_path.display()
         );
     }
-    let fix_hash = hash_file(fixations_csv)?;
-    // Projection.
-    let proj_dir = out.join("projection").join(&m.name);
-    let key = key_of(&["project", &stim.manifest_sha256, &fix_hash, name]);
+    Ok(stim)
+}
+
+/// Projects the fixations shown with stimulus `name`; returns projected.csv.
+fn project_step(
+    study: &Study,
+    m: &StudyMesh,
+    stim: &LoadedStimulus,
+    fixations_csv: &Path,
+    name: &str,
+    logs: &mut Vec<StepLog>,
+) -> Result<PathBuf> {
+    let proj_dir = study.output.join("projection").join(&m.name);
+    let key = key_of(&[
+        "project",
+        &stim.manifest_sha256,
+        &hash_file(fixations_csv)?,
+        name,
+    ]);
     if stamped(&proj_dir, &key) {
         logs.push(log(&m.name, "project", "up-to-date", ""));
     } else {
@@ -437,7 +500,7 @@ fn mesh_steps(
             self_check: true,
             ..ProjectOptions::default()
         };
-        let run = project_files(&stim, &[fixations_csv.to_path_buf()], &options, &Silent)?;
+        let run = project_files(stim, &[fixations_csv.to_path_buf()], &options, &Silent)?;
         write_projection(&proj_dir, &run)?;
         stamp(&proj_dir, &key)?;
         logs.push(log(
@@ -447,16 +510,25 @@ fn mesh_steps(
             format!("{} fixations", run.projected.len()),
         ));
     }
-    // Truth.
-    let truth_dir = out.join("truth").join(&m.name);
-    let projected = proj_dir.join("projected.csv");
-    let key = key_of(&["truth", &stim.manifest_sha256, &hash_file(&projected)?]);
+    Ok(proj_dir.join("projected.csv"))
+}
+
+/// Builds the mesh's truth from its projections; returns the truth folder.
+fn truth_step(
+    study: &Study,
+    m: &StudyMesh,
+    stim: &LoadedStimulus,
+    projected: &Path,
+    logs: &mut Vec<StepLog>,
+) -> Result<PathBuf> {
+    let truth_dir = study.output.join("truth").join(&m.name);
+    let key = key_of(&["truth", &stim.manifest_sha256, &hash_file(projected)?]);
     if stamped(&truth_dir, &key) {
         logs.push(log(&m.name, "truth", "up-to-date", ""));
     } else {
-        let projections = read_projections(&stim, std::slice::from_ref(&projected))?;
-        let truth = build_truth(&stim, projections, &TruthParams::default(), &Silent)?;
-        write_truth(&truth_dir, &stim, &truth)?;
+        let projections = read_projections(stim, &[projected.to_path_buf()])?;
+        let truth = build_truth(stim, projections, &TruthParams::default(), &Silent)?;
+        write_truth(&truth_dir, stim, &truth)?;
         stamp(&truth_dir, &key)?;
         logs.push(log(
             &m.name,
@@ -465,33 +537,34 @@ fn mesh_steps(
             format!("{} fixations on the mesh", truth.sidecar.fixations_on_mesh),
         ));
     }
-    // Saliency, one file per method.
-    let mesh_hash = stim.mesh_sha256.clone();
+    Ok(truth_dir)
+}
+
+/// Computes (or reads back) every method's map, one file per method.
+fn saliency_step(
+    study: &Study,
+    m: &StudyMesh,
+    stim: &LoadedStimulus,
+    logs: &mut Vec<StepLog>,
+) -> Result<Vec<(String, Vec<f64>)>> {
     let mut maps = Vec::new();
     for &method in &study.methods {
-        let dir = out.join("saliency").join(method.name());
+        let step = format!("saliency {}", method.name());
+        let dir = study.output.join("saliency").join(method.name());
         let prefix = dir.join(&m.name);
         let stamp_dir = dir.join(format!(".{}", m.name));
-        let key = key_of(&["saliency", method.name(), &mesh_hash]);
+        let key = key_of(&["saliency", method.name(), &stim.mesh_sha256]);
         if stamped(&stamp_dir, &key) {
-            logs.push(log(
-                &m.name,
-                &format!("saliency {}", method.name()),
-                "up-to-date",
-                "",
-            ));
-            maps.push((
-                method.name().to_string(),
-                read_map(&prefix.with_extension("csv"), stim.mesh.positions.len())?,
-            ));
+            logs.push(log(&m.name, &step, "up-to-date", ""));
+            let values = read_map(&prefix.with_extension("csv"), stim.mesh.positions.len())?;
+            maps.push((method.name().to_string(), values));
             continue;
         }
-        let input = InputFile::hash(&stim.mesh_path)?;
         let r = compute_and_write_map(
             &stim.mesh_path,
             &stim.mesh,
             &stim.mesh_report,
-            input,
+            InputFile::hash(&stim.mesh_path)?,
             method,
             &SmsParams::default(),
             MapOutputs::default(),
@@ -500,43 +573,136 @@ fn mesh_steps(
         )?;
         create_output_dir(&stamp_dir)?;
         stamp(&stamp_dir, &key)?;
-        logs.push(log(
-            &m.name,
-            &format!("saliency {}", method.name()),
-            "done",
-            "",
-        ));
+        logs.push(log(&m.name, &step, "done", ""));
         maps.push((method.name().to_string(), r.values));
     }
-    // Score.
+    Ok(maps)
+}
+
+/// Scores the maps against the truth: OUT/scores/MESH.csv, the chance draws in
+/// OUT/scores/chance/MESH.csv and the mesh's page OUT/report/MESH.html.
+fn score_step(
+    study: &Study,
+    m: &StudyMesh,
+    stim: &LoadedStimulus,
+    truth_dir: &Path,
+    maps: &[(String, Vec<f64>)],
+    logs: &mut Vec<StepLog>,
+) -> Result<()> {
+    let out = &study.output;
     let score_dir = out.join("scores");
     let score_file = score_dir.join(format!("{}.csv", m.name));
+    let chance_file = score_dir.join("chance").join(format!("{}.csv", m.name));
+    let page_file = out.join("report").join(format!("{}.html", m.name));
     let truth_csv = truth_dir.join("truth.csv");
     let mut parts = vec![
         "score".to_string(),
-        mesh_hash.clone(),
+        stim.mesh_sha256.clone(),
         hash_file(&truth_csv)?,
     ];
     parts.extend(study.methods.iter().map(|m| m.name().to_string()));
     let refs: Vec<&str> = parts.iter().map(String::as_str).collect();
     let key = key_of(&refs);
     let stamp_dir = score_dir.join(format!(".{}", m.name));
-    if stamped(&stamp_dir, &key) && score_file.exists() {
+    if stamped(&stamp_dir, &key)
+        && [&score_file, &chance_file, &page_file]
+            .iter()
+            .all(|f| f.exists())
+    {
         logs.push(log(&m.name, "score", "up-to-date", ""));
         return Ok(());
     }
     let truth = crate::truth::load_ground_truth(&truth_csv, stim.mesh.positions.len(), 0.05)?;
-    let score = score_mesh(&stim.mesh, &truth, &maps, &ScoreParams::default(), &Silent)
+    let score = score_mesh(&stim.mesh, &truth, maps, &ScoreParams::default(), &Silent)
         .map_err(anyhow::Error::msg)?;
-    create_output_dir(&score_dir)?;
+    create_output_dir(&score_dir.join("chance"))?;
     let mut bytes = Vec::new();
     write_score_rows(&mut bytes, &m.name, &score.rows)?;
     std::fs::write(&score_file, bytes)
         .with_context(|| format!("cannot write {}", score_file.display()))?;
+    write_chance_draws(&chance_file, &score.chance_auc_judd)?;
+    let density = read_density(&truth_dir.join("density.csv"), stim.mesh.positions.len())?;
+    let truth_json_path = truth_dir.join("truth.json");
+    let truth_json: serde_json::Value = serde_json::from_slice(
+        &std::fs::read(&truth_json_path)
+            .with_context(|| format!("cannot read {}", truth_json_path.display()))?,
+    )
+    .with_context(|| format!("{}: not JSON", truth_json_path.display()))?;
+    let n = &m.name;
+    let mut links = vec![
+        (
+            format!("stimulus video ({n})"),
+            format!("../stimuli/{n}/stimulus.mp4"),
+        ),
+        (
+            "camera timeline".to_string(),
+            format!("../stimuli/{n}/timeline.csv"),
+        ),
+        (
+            "projected fixations".to_string(),
+            format!("../projection/{n}/projected.csv"),
+        ),
+        (
+            "truth (fixations on vertices)".to_string(),
+            format!("../truth/{n}/truth.csv"),
+        ),
+        (
+            "truth on the mesh (PLY)".to_string(),
+            format!("../truth/{n}/truth.ply"),
+        ),
+        ("scores".to_string(), format!("../scores/{n}.csv")),
+    ];
+    for (method, _) in maps {
+        links.push((
+            format!("{method} map"),
+            format!("../saliency/{method}/{n}.csv"),
+        ));
+    }
+    write_mesh_page(
+        &out.join("report"),
+        &MeshPage {
+            name: n,
+            stim,
+            maps,
+            score: &score,
+            density: &density,
+            truth_json: &truth_json,
+            links: &links,
+        },
+    )?;
     create_output_dir(&stamp_dir)?;
     stamp(&stamp_dir, &key)?;
     logs.push(log(&m.name, "score", "done", ""));
     Ok(())
+}
+
+/// The `density` column of a truth folder's density.csv, one value per vertex.
+fn read_density(path: &Path, n: usize) -> Result<Vec<f64>> {
+    let mut r =
+        csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let col = r
+        .headers()?
+        .iter()
+        .position(|h| h == "density")
+        .with_context(|| format!("{}: no `density` column", path.display()))?;
+    let mut values = Vec::with_capacity(n);
+    for (i, rec) in r.records().enumerate() {
+        let rec = rec?;
+        values.push(
+            rec.get(col)
+                .unwrap_or("")
+                .parse::<f64>()
+                .with_context(|| format!("{}: line {}: not a number", path.display(), i + 2))?,
+        );
+    }
+    if values.len() != n {
+        anyhow::bail!(
+            "{}: {} rows for a mesh of {n} vertices",
+            path.display(),
+            values.len()
+        );
+    }
+    Ok(values)
 }
 
 /// Joins OUT/scores/<mesh>.csv of every mesh present (from any shard) into OUT/scores.csv, in
