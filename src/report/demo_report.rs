@@ -313,7 +313,7 @@ For real data, replace step 2 with your lab's SMI exports (<code>meshgaze ingest
         fmt3(r.truth.sidecar.human_auc_judd_peak),
         r.truth.sidecar.human_auc_judd_peak_blur
     );
-    html += "<p>AUC-Judd: fixated vertices against all others; blurring the saliency map over σ<sub>b</sub> = 0–0.2 (normalized units, half the principal-axes box diagonal = 1) as in the paper's Fig. 6. The chance line is a seeded random map blurred the same way; the human line is the split-half ceiling: one half of the subjects predicting the other.</p><div class=\"grid\" style=\"grid-template-columns: 1fr 1fr\">";
+    html += "<p>AUC-Judd: fixated vertices against all others; blurring the saliency map over σ<sub>b</sub> = 0–0.2 (normalized units, half the principal-axes box diagonal = 1) as in the paper's Fig. 6. The grey band holds 95% of 20 seeded random maps blurred the same way (dashed: their mean); the human line is the split-half ceiling: one half of the subjects predicting the other.</p><div class=\"grid\" style=\"grid-template-columns: 1fr 1fr\">";
     for p in r.plots {
         let _ = write!(
             html,
