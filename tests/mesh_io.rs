@@ -363,7 +363,6 @@ fn real_obj_files_read_the_same_triangles_as_tobj() {
             single_index: false,
             ignore_points: true,
             ignore_lines: true,
-            ..Default::default()
         };
         let (models, _) = tobj::load_obj_buf(&mut std::io::Cursor::new(&bytes), &options, |_| {
             Err(tobj::LoadError::OpenFileFailed)

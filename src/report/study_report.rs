@@ -132,81 +132,56 @@ fn median(v: &[f64]) -> f64 {
     crate::scoring::quantile(v, 0.5)
 }
 
-/// Builds OUT/report.html (and OUT/report/mean_auc.png) from OUT/scores.csv, OUT/scores/chance/,
-/// OUT/truth/*/truth.json and OUT/ingest/quality.csv. `problems` are listed at the top.
-pub fn write_study_report(out: &Path, problems: &[String]) -> Result<PathBuf> {
-    let scores_csv = out.join("scores.csv");
-    let rows = if scores_csv.exists() {
-        read_scores(&scores_csv)?
-    } else {
-        Vec::new()
-    };
-    let mut meshes: Vec<String> = rows.iter().map(|r| r.mesh.clone()).collect();
-    meshes.dedup();
-    let mut methods: Vec<String> = Vec::new();
-    for r in &rows {
-        let special = [CHANCE, CHANCE_LOW, CHANCE_HIGH, HUMAN].contains(&r.method.as_str());
-        if !special && !methods.contains(&r.method) {
-            methods.push(r.method.clone());
-        }
-    }
-    let curve = |mesh: &str, method: &str| -> Vec<(f64, f64)> {
-        rows.iter()
-            .filter(|r| r.mesh == mesh && r.method == method && r.metric == "auc_judd")
-            .map(|r| (r.blur, r.value))
-            .collect()
-    };
-    let value_at = |mesh: &str, method: &str, blur: f64| {
-        rows.iter()
-            .find(|r| {
-                r.mesh == mesh && r.method == method && r.metric == "auc_judd" && r.blur == blur
-            })
-            .map_or(f64::NAN, |r| r.value)
-    };
-    let report_dir = out.join("report");
-    crate::file_bytes::create_output_dir(&report_dir)?;
+fn auc_curve(rows: &[Row], mesh: &str, method: &str) -> Vec<(f64, f64)> {
+    rows.iter()
+        .filter(|r| r.mesh == mesh && r.method == method && r.metric == "auc_judd")
+        .map(|r| (r.blur, r.value))
+        .collect()
+}
 
-    let mut h = format!(
-        "<!doctype html><html><head><meta charset=\"utf-8\"><title>meshgaze study</title><style>{STYLE}</style></head><body><h1>meshgaze study: {} meshes, {} methods</h1><p>Written by meshgaze {} from the files beside it (study.json has the provenance of every input).</p>",
-        meshes.len(),
-        methods.len(),
-        env!("CARGO_PKG_VERSION"),
-    );
-    if !problems.is_empty() {
-        h += "<h2>Problems</h2><ul>";
-        for p in problems {
-            let _ = write!(h, "<li>{}</li>", esc(p));
-        }
-        h += "</ul>";
-    }
+fn auc_at(rows: &[Row], mesh: &str, method: &str, blur: f64) -> f64 {
+    rows.iter()
+        .find(|r| r.mesh == mesh && r.method == method && r.metric == "auc_judd" && r.blur == blur)
+        .map_or(f64::NAN, |r| r.value)
+}
 
-    // Mean curves over the meshes that have them.
-    let mean_curve = |method: &str| -> Vec<(f64, f64)> {
-        let per: Vec<Vec<(f64, f64)>> = meshes
-            .iter()
-            .map(|m| curve(m, method))
-            .filter(|c| !c.is_empty())
-            .collect();
-        let Some(first) = per.first() else {
-            return Vec::new();
-        };
-        first
-            .iter()
-            .enumerate()
-            .filter(|(i, _)| {
-                per.iter()
-                    .all(|c| c.len() == first.len() && c[*i].0 == first[*i].0)
-            })
-            .map(|(i, p)| {
-                (
-                    p.0,
-                    per.iter().map(|c| c[i].1).sum::<f64>() / per.len() as f64,
-                )
-            })
-            .collect()
+/// A method's AUC-Judd averaged over the meshes that have its curve, at each blur of the grid.
+fn mean_curve(rows: &[Row], meshes: &[String], method: &str) -> Vec<(f64, f64)> {
+    let per: Vec<Vec<(f64, f64)>> = meshes
+        .iter()
+        .map(|m| auc_curve(rows, m, method))
+        .filter(|c| !c.is_empty())
+        .collect();
+    let Some(first) = per.first() else {
+        return Vec::new();
     };
+    first
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| {
+            per.iter()
+                .all(|c| c.len() == first.len() && c[*i].0 == first[*i].0)
+        })
+        .map(|(i, p)| {
+            (
+                p.0,
+                per.iter().map(|c| c[i].1).sum::<f64>() / per.len() as f64,
+            )
+        })
+        .collect()
+}
+
+/// The mean AUC-vs-blur chart (report/mean_auc.png) and its table.
+fn mean_section(
+    out: &Path,
+    rows: &[Row],
+    meshes: &[String],
+    methods: &[String],
+    report_dir: &Path,
+) -> Result<String> {
+    let mut h = String::new();
     let mut draws = Vec::new();
-    for m in &meshes {
+    for m in meshes {
         let p = out.join("scores").join("chance").join(format!("{m}.csv"));
         if p.exists() {
             draws.push(read_chance_draws(&p)?);
@@ -223,7 +198,7 @@ pub fn write_study_report(out: &Path, problems: &[String]) -> Result<PathBuf> {
         .enumerate()
         .map(|(k, m)| Series {
             name: m.clone(),
-            points: mean_curve(m),
+            points: mean_curve(rows, meshes, m),
             color: PALETTE[k % PALETTE.len()],
             dashed: false,
             band: Vec::new(),
@@ -236,7 +211,7 @@ pub fn write_study_report(out: &Path, problems: &[String]) -> Result<PathBuf> {
         dashed: true,
         band: band.iter().map(|b| (b.0, b.2, b.3)).collect(),
     });
-    let human = mean_curve(HUMAN);
+    let human = mean_curve(rows, meshes, HUMAN);
     if !human.is_empty() {
         series.push(Series {
             name: "human (split-half)".into(),
@@ -295,17 +270,22 @@ pub fn write_study_report(out: &Path, problems: &[String]) -> Result<PathBuf> {
         h += "</table>";
     }
 
-    // Per mesh.
+    Ok(h)
+}
+
+/// One row per mesh, linking to its page.
+fn mesh_table(out: &Path, rows: &[Row], meshes: &[String], methods: &[String]) -> Result<String> {
+    let mut h = String::new();
     h += "<h2>Meshes</h2><p>Kept fixations on the mesh of the protocol's expected number per subject; fates of all fixations; the human ceiling at its peak; each method's AUC-Judd unblurred / at its peak (σ<sub>b</sub>) with the chance band at that blur.</p><table><tr><th>mesh</th><th>subjects</th><th>on mesh / expected</th>";
     for f in FATES {
         let _ = write!(h, "<th>{f}</th>");
     }
     h += "<th>human peak</th>";
-    for m in &methods {
+    for m in methods {
         let _ = write!(h, "<th>{}</th>", esc(m));
     }
     h += "</tr>";
-    for mesh in &meshes {
+    for mesh in meshes {
         let truth_path = out.join("truth").join(mesh).join("truth.json");
         let truth: serde_json::Value = match std::fs::read(&truth_path) {
             Ok(b) => serde_json::from_slice(&b)
@@ -334,35 +314,38 @@ pub fn write_study_report(out: &Path, problems: &[String]) -> Result<PathBuf> {
             "<td>{}</td>",
             fmt3(truth["human_auc_judd_peak"].as_f64().unwrap_or(f64::NAN))
         );
-        for m in &methods {
-            let c = curve(mesh, m);
+        for m in methods {
+            let c = auc_curve(rows, mesh, m);
             let (b, peak) = peak_over_blur(&c);
             let _ = write!(
                 h,
                 "<td>{} / {} ({b:.2}) <small>chance {} [{}, {}]</small></td>",
-                fmt3(value_at(mesh, m, 0.0)),
+                fmt3(auc_at(rows, mesh, m, 0.0)),
                 fmt3(peak),
-                fmt3(value_at(mesh, CHANCE, b)),
-                fmt3(value_at(mesh, CHANCE_LOW, b)),
-                fmt3(value_at(mesh, CHANCE_HIGH, b))
+                fmt3(auc_at(rows, mesh, CHANCE, b)),
+                fmt3(auc_at(rows, mesh, CHANCE_LOW, b)),
+                fmt3(auc_at(rows, mesh, CHANCE_HIGH, b))
             );
         }
         h += "</tr>";
     }
     h += "</table>";
 
-    // Data quality.
-    let quality_csv = out.join("ingest").join("quality.csv");
-    if quality_csv.exists() {
-        let q = read_quality(&quality_csv)?;
-        h += "<h2>Data quality per subject</h2><p>Over every stimulus of the subject's recording (ingest/quality.csv has one row per stimulus): tracking loss, precision as the RMS of sample-to-sample distances in pixels (median over stimuli), fixations kept by the protocol's filter and those invalid. The exports meshgaze reads carry no calibration validation result, so accuracy is not shown.</p><table><tr><th>subject</th><th>stimuli</th><th>samples</th><th>loss</th><th>precision RMS (px)</th><th>kept fixations</th><th>invalid</th></tr>";
-        for (s, x) in &q {
-            let loss = if x.samples > 0 {
-                x.lost as f64 / x.samples as f64
-            } else {
-                f64::NAN
-            };
-            let _ = write!(
+    Ok(h)
+}
+
+/// Data quality per subject over all stimuli of ingest/quality.csv.
+fn quality_table(quality_csv: &Path) -> Result<String> {
+    let mut h = String::new();
+    let q = read_quality(quality_csv)?;
+    h += "<h2>Data quality per subject</h2><p>Over every stimulus of the subject's recording (ingest/quality.csv has one row per stimulus): tracking loss, precision as the RMS of sample-to-sample distances in pixels (median over stimuli), fixations kept by the protocol's filter and those invalid. The exports meshgaze reads carry no calibration validation result, so accuracy is not shown.</p><table><tr><th>subject</th><th>stimuli</th><th>samples</th><th>loss</th><th>precision RMS (px)</th><th>kept fixations</th><th>invalid</th></tr>";
+    for (s, x) in &q {
+        let loss = if x.samples > 0 {
+            x.lost as f64 / x.samples as f64
+        } else {
+            f64::NAN
+        };
+        let _ = write!(
                 h,
                 "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
                 esc(s),
@@ -373,8 +356,52 @@ pub fn write_study_report(out: &Path, problems: &[String]) -> Result<PathBuf> {
                 x.kept,
                 x.invalid
             );
+    }
+    h += "</table>";
+
+    Ok(h)
+}
+
+/// Builds OUT/report.html (and OUT/report/mean_auc.png) from OUT/scores.csv, OUT/scores/chance/,
+/// OUT/truth/*/truth.json and OUT/ingest/quality.csv. `problems` are listed at the top.
+pub fn write_study_report(out: &Path, problems: &[String]) -> Result<PathBuf> {
+    let scores_csv = out.join("scores.csv");
+    let rows = if scores_csv.exists() {
+        read_scores(&scores_csv)?
+    } else {
+        Vec::new()
+    };
+    let mut meshes: Vec<String> = rows.iter().map(|r| r.mesh.clone()).collect();
+    meshes.dedup();
+    let mut methods: Vec<String> = Vec::new();
+    for r in &rows {
+        let special = [CHANCE, CHANCE_LOW, CHANCE_HIGH, HUMAN].contains(&r.method.as_str());
+        if !special && !methods.contains(&r.method) {
+            methods.push(r.method.clone());
         }
-        h += "</table>";
+    }
+    let report_dir = out.join("report");
+    crate::file_bytes::create_output_dir(&report_dir)?;
+
+    let mut h = format!(
+        "<!doctype html><html><head><meta charset=\"utf-8\"><title>meshgaze study</title><style>{STYLE}</style></head><body><h1>meshgaze study: {} meshes, {} methods</h1><p>Written by meshgaze {} from the files beside it (study.json has the provenance of every input).</p>",
+        meshes.len(),
+        methods.len(),
+        env!("CARGO_PKG_VERSION"),
+    );
+    if !problems.is_empty() {
+        h += "<h2>Problems</h2><ul>";
+        for p in problems {
+            let _ = write!(h, "<li>{}</li>", esc(p));
+        }
+        h += "</ul>";
+    }
+
+    h += &mean_section(out, &rows, &meshes, &methods, &report_dir)?;
+    h += &mesh_table(out, &rows, &meshes, &methods)?;
+    let quality_csv = out.join("ingest").join("quality.csv");
+    if quality_csv.exists() {
+        h += &quality_table(&quality_csv)?;
     }
     h += "<h2>Files</h2><ul><li><a href=\"scores.csv\">scores.csv</a> (mesh, method, metric, blur, value)</li><li><a href=\"study.json\">study.json</a></li><li><a href=\"run.log\">run.log</a></li><li><a href=\"ingest/fixations.csv\">ingest/fixations.csv</a>, <a href=\"ingest/quality.csv\">ingest/quality.csv</a></li></ul></body></html>\n";
     let path = out.join("report.html");

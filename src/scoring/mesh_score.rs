@@ -242,6 +242,126 @@ fn value_at(rows: &[ScoreRow], method: &str, metric: &str, blur: f64) -> f64 {
         .map_or(f64::NAN, |r| r.value)
 }
 
+/// Fixations per vertex, one map per subject of a fixation set (none for a vertex map).
+fn subject_fixation_counts(truth: &GroundTruth, n: usize) -> Vec<Vec<f64>> {
+    match truth {
+        GroundTruth::Fixations(f) => f
+            .subjects
+            .iter()
+            .map(|s| {
+                let mut c = vec![0.0; n];
+                for x in f.fixations.iter().filter(|x| &x.subject == s) {
+                    c[x.vertex] += 1.0;
+                }
+                c
+            })
+            .collect(),
+        GroundTruth::VertexMap(_) => Vec::new(),
+    }
+}
+
+fn sum_of_maps<'a>(maps: impl Iterator<Item = &'a Vec<f64>>, n: usize) -> Vec<f64> {
+    let mut d = vec![0.0; n];
+    for m in maps {
+        for (a, b) in d.iter_mut().zip(m) {
+            *a += b;
+        }
+    }
+    d
+}
+
+/// What every map is scored against at one blur.
+struct Target<'a> {
+    positive: &'a [bool],
+    fixated: &'a [usize],
+    density: Vec<f64>,
+    weights: Option<&'a [f64]>,
+    params: &'a ScoreParams,
+}
+
+impl Target<'_> {
+    fn metrics_of(&self, map: &[f64]) -> [(&'static str, f64); 7] {
+        let (w, p) = (self.weights, self.params);
+        [
+            ("auc_judd", auc_judd(map, self.positive, w)),
+            (
+                "auc_borji",
+                auc_borji(map, self.fixated, w, p.borji_splits, p.seed),
+            ),
+            ("lcc", lcc(map, &self.density, w)),
+            ("nss", nss(map, self.fixated, w)),
+            ("sim", sim(map, &self.density, w)),
+            ("kl", kl_divergence(map, &self.density, w)),
+            (
+                "gini",
+                gini_index(&map.iter().map(|v| v.max(0.0)).collect::<Vec<_>>()),
+            ),
+        ]
+    }
+}
+
+/// The split-half human ceiling at one blur: (metric, mean over splits) for AUC-Judd, LCC, NSS.
+fn human_ceiling(
+    fixations: &crate::truth::FixationTruth,
+    subject_maps: &[Vec<f64>],
+    splits: &[(Vec<usize>, Vec<usize>)],
+    weights: Option<&[f64]>,
+) -> [(&'static str, f64); 3] {
+    let n = subject_maps.first().map_or(0, |m| m.len());
+    let (mut auc_sum, mut lcc_sum, mut nss_sum) = (0.0, 0.0, 0.0);
+    for (pred, target) in splits {
+        let predictor = sum_of_maps(pred.iter().map(|&s| &subject_maps[s]), n);
+        let target_density = sum_of_maps(target.iter().map(|&s| &subject_maps[s]), n);
+        let target_names: Vec<&String> = target.iter().map(|&s| &fixations.subjects[s]).collect();
+        let target_fix: Vec<usize> = fixations
+            .fixations
+            .iter()
+            .filter(|x| target_names.contains(&&x.subject))
+            .map(|x| x.vertex)
+            .collect();
+        let mut target_pos = vec![false; n];
+        for &v in &target_fix {
+            target_pos[v] = true;
+        }
+        auc_sum += auc_judd(&predictor, &target_pos, weights);
+        lcc_sum += lcc(&predictor, &target_density, weights);
+        nss_sum += nss(&predictor, &target_fix, weights);
+    }
+    let k = splits.len() as f64;
+    [
+        ("auc_judd", auc_sum / k),
+        ("lcc", lcc_sum / k),
+        ("nss", nss_sum / k),
+    ]
+}
+
+/// Each method's (and chance's) values unblurred and at its peak over blur.
+fn summaries_of(rows: &[ScoreRow], methods: &[(String, Vec<f64>)]) -> Vec<MethodSummary> {
+    methods
+        .iter()
+        .map(|(name, _)| name.as_str())
+        .chain([CHANCE])
+        .map(|name| {
+            let (auc_peak, auc_blur) = argmax_over_blur(rows, name, "auc_judd");
+            let (lcc_peak, lcc_blur) = argmax_over_blur(rows, name, "lcc");
+            MethodSummary {
+                method: name.to_string(),
+                auc_judd_unblurred: value_at(rows, name, "auc_judd", 0.0),
+                auc_judd_peak: auc_peak,
+                auc_judd_peak_blur: auc_blur,
+                chance_auc_judd_at_peak: value_at(rows, CHANCE, "auc_judd", auc_blur),
+                chance_auc_judd_low_at_peak: value_at(rows, CHANCE_LOW, "auc_judd", auc_blur),
+                chance_auc_judd_high_at_peak: value_at(rows, CHANCE_HIGH, "auc_judd", auc_blur),
+                lcc_unblurred: value_at(rows, name, "lcc", 0.0),
+                lcc_peak,
+                lcc_peak_blur: lcc_blur,
+                nss_unblurred: value_at(rows, name, "nss", 0.0),
+                gini_unblurred: value_at(rows, name, "gini", 0.0),
+            }
+        })
+        .collect()
+}
+
 /// Scores `maps` (name, one value per vertex) against `truth` on `mesh`.
 pub fn score_mesh(
     mesh: &Mesh,
@@ -250,76 +370,28 @@ pub fn score_mesh(
     params: &ScoreParams,
     progress: &dyn Progress,
 ) -> Result<MeshScore, String> {
-    let n = mesh.positions.len();
-    let norm = Normalization::of_mesh(mesh, params.bounding_box);
-    let areas = vertex_areas(mesh);
-    let normalized = norm.normalized_mesh(mesh);
-    let blur = MeshBlur::new(&normalized, params.kernel);
-    let weights = (params.weighting == Weighting::Area).then_some(areas.as_slice());
-    let positive = truth.positive(n);
-    let fixated = truth.fixated();
     if params.chance_maps == 0 {
         return Err("the chance band needs at least one random map".to_string());
     }
+    let n = mesh.positions.len();
+    let norm = Normalization::of_mesh(mesh, params.bounding_box);
+    let areas = vertex_areas(mesh);
+    let blur = MeshBlur::new(&norm.normalized_mesh(mesh), params.kernel);
+    let weights = (params.weighting == Weighting::Area).then_some(areas.as_slice());
+    let positive = truth.positive(n);
+    let fixated = truth.fixated();
     let chance = chance_maps(n, params.chance_maps, params.seed);
-    // Per-subject fixation counts, for density maps and the human ceiling.
-    let (subject_counts, splits) = match truth {
+    let subject_counts = subject_fixation_counts(truth, n);
+    let splits = match truth {
         GroundTruth::Fixations(f) => {
-            let counts: Vec<Vec<f64>> = f
-                .subjects
-                .iter()
-                .map(|s| {
-                    let mut c = vec![0.0; n];
-                    for x in f.fixations.iter().filter(|x| &x.subject == s) {
-                        c[x.vertex] += 1.0;
-                    }
-                    c
-                })
-                .collect();
-            let splits = human_splits(f.subjects.len(), params.human_random_splits, params.seed);
-            (counts, splits)
+            human_splits(f.subjects.len(), params.human_random_splits, params.seed)
         }
-        GroundTruth::VertexMap(_) => (Vec::new(), Vec::new()),
+        GroundTruth::VertexMap(_) => Vec::new(),
     };
     let mut rows = Vec::new();
     let mut chance_auc_judd = Vec::new();
     progress.start("scoring over blur", params.blur_sigmas.len() as u64);
     for &sigma in &params.blur_sigmas {
-        let mut inputs: Vec<&[f64]> = maps.iter().map(|(_, m)| m.as_slice()).collect();
-        inputs.extend(chance.iter().map(|c| c.as_slice()));
-        inputs.extend(subject_counts.iter().map(|c| c.as_slice()));
-        let blurred = blur.blur(&inputs, sigma)?;
-        let (method_maps, rest) = blurred.split_at(maps.len());
-        let (chance_blurred, subject_maps) = rest.split_at(chance.len());
-        let density: Vec<f64> = match truth {
-            GroundTruth::VertexMap(m) => m.values.clone(),
-            GroundTruth::Fixations(_) => {
-                let mut d = vec![0.0; n];
-                for s in subject_maps {
-                    for (a, b) in d.iter_mut().zip(s) {
-                        *a += b;
-                    }
-                }
-                d
-            }
-        };
-        let metrics_of = |map: &[f64]| -> [(&'static str, f64); 7] {
-            [
-                ("auc_judd", auc_judd(map, &positive, weights)),
-                (
-                    "auc_borji",
-                    auc_borji(map, &fixated, weights, params.borji_splits, params.seed),
-                ),
-                ("lcc", lcc(map, &density, weights)),
-                ("nss", nss(map, &fixated, weights)),
-                ("sim", sim(map, &density, weights)),
-                ("kl", kl_divergence(map, &density, weights)),
-                (
-                    "gini",
-                    gini_index(&map.iter().map(|v| v.max(0.0)).collect::<Vec<_>>()),
-                ),
-            ]
-        };
         let mut push = |method: &str, metric: &'static str, value: f64| {
             rows.push(ScoreRow {
                 method: method.to_string(),
@@ -328,96 +400,53 @@ pub fn score_mesh(
                 value,
             })
         };
+        let mut inputs: Vec<&[f64]> = maps.iter().map(|(_, m)| m.as_slice()).collect();
+        inputs.extend(chance.iter().map(|c| c.as_slice()));
+        inputs.extend(subject_counts.iter().map(|c| c.as_slice()));
+        let blurred = blur.blur(&inputs, sigma)?;
+        let (method_maps, rest) = blurred.split_at(maps.len());
+        let (chance_blurred, subject_maps) = rest.split_at(chance.len());
+        let target = Target {
+            positive: &positive,
+            fixated: &fixated,
+            density: match truth {
+                GroundTruth::VertexMap(m) => m.values.clone(),
+                GroundTruth::Fixations(_) => sum_of_maps(subject_maps.iter(), n),
+            },
+            weights,
+            params,
+        };
         for ((name, _), map) in maps.iter().zip(method_maps) {
-            for (metric, value) in metrics_of(map) {
+            for (metric, value) in target.metrics_of(map) {
                 push(name, metric, value);
             }
         }
-        let chance_metrics: Vec<[(&'static str, f64); 7]> =
-            chance_blurred.iter().map(|m| metrics_of(m)).collect();
+        let chance_metrics: Vec<[(&'static str, f64); 7]> = chance_blurred
+            .iter()
+            .map(|m| target.metrics_of(m))
+            .collect();
         chance_auc_judd.push((sigma, chance_metrics.iter().map(|m| m[0].1).collect()));
         for (j, (metric, _)) in chance_metrics[0].iter().enumerate() {
             let values: Vec<f64> = chance_metrics.iter().map(|m| m[j].1).collect();
-            let mean = values.iter().sum::<f64>() / values.len() as f64;
-            push(CHANCE, metric, mean);
+            push(
+                CHANCE,
+                metric,
+                values.iter().sum::<f64>() / values.len() as f64,
+            );
             push(CHANCE_LOW, metric, quantile(&values, 0.025));
             push(CHANCE_HIGH, metric, quantile(&values, 0.975));
         }
-        if !splits.is_empty() {
-            let (mut auc_sum, mut lcc_sum, mut nss_sum) = (0.0, 0.0, 0.0);
-            if let GroundTruth::Fixations(f) = truth {
-                for (pred, target) in &splits {
-                    let sum_of = |set: &[usize]| {
-                        let mut m = vec![0.0; n];
-                        for &s in set {
-                            for (a, b) in m.iter_mut().zip(&subject_maps[s]) {
-                                *a += b;
-                            }
-                        }
-                        m
-                    };
-                    let predictor = sum_of(pred);
-                    let target_density = sum_of(target);
-                    let target_names: Vec<&String> =
-                        target.iter().map(|&s| &f.subjects[s]).collect();
-                    let target_fix: Vec<usize> = f
-                        .fixations
-                        .iter()
-                        .filter(|x| target_names.contains(&&x.subject))
-                        .map(|x| x.vertex)
-                        .collect();
-                    let mut target_pos = vec![false; n];
-                    for &v in &target_fix {
-                        target_pos[v] = true;
-                    }
-                    auc_sum += auc_judd(&predictor, &target_pos, weights);
-                    lcc_sum += lcc(&predictor, &target_density, weights);
-                    nss_sum += nss(&predictor, &target_fix, weights);
-                }
-            }
-            let k = splits.len() as f64;
-            for (metric, v) in [
-                ("auc_judd", auc_sum / k),
-                ("lcc", lcc_sum / k),
-                ("nss", nss_sum / k),
-            ] {
-                rows.push(ScoreRow {
-                    method: HUMAN.into(),
-                    metric,
-                    blur: sigma,
-                    value: v,
-                });
+        if let (GroundTruth::Fixations(f), false) = (truth, splits.is_empty()) {
+            for (metric, value) in human_ceiling(f, subject_maps, &splits, weights) {
+                push(HUMAN, metric, value);
             }
         }
         progress.advance(1);
     }
     progress.finish();
-    let summaries = maps
-        .iter()
-        .map(|(name, _)| name.as_str())
-        .chain([CHANCE])
-        .map(|name| {
-            let (auc_peak, auc_blur) = argmax_over_blur(&rows, name, "auc_judd");
-            let (lcc_peak, lcc_blur) = argmax_over_blur(&rows, name, "lcc");
-            MethodSummary {
-                method: name.to_string(),
-                auc_judd_unblurred: value_at(&rows, name, "auc_judd", 0.0),
-                auc_judd_peak: auc_peak,
-                auc_judd_peak_blur: auc_blur,
-                chance_auc_judd_at_peak: value_at(&rows, CHANCE, "auc_judd", auc_blur),
-                chance_auc_judd_low_at_peak: value_at(&rows, CHANCE_LOW, "auc_judd", auc_blur),
-                chance_auc_judd_high_at_peak: value_at(&rows, CHANCE_HIGH, "auc_judd", auc_blur),
-                lcc_unblurred: value_at(&rows, name, "lcc", 0.0),
-                lcc_peak,
-                lcc_peak_blur: lcc_blur,
-                nss_unblurred: value_at(&rows, name, "nss", 0.0),
-                gini_unblurred: value_at(&rows, name, "gini", 0.0),
-            }
-        })
-        .collect();
     Ok(MeshScore {
+        summaries: summaries_of(&rows, maps),
         rows,
-        summaries,
         human_splits: splits.len(),
         positives: positive.iter().filter(|p| **p).count(),
         fixations: fixated.len(),
