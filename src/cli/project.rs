@@ -119,9 +119,10 @@ pub fn run(args: ProjectArgs) -> Result<()> {
         );
         if let Some(c) = &s.self_check {
             eprintln!(
-                "self-check: {}/{} hold-phase fixations hit the triangle the renderer drew at their pixel ({:.2}%)",
+                "self-check: {}/{} hold-phase fixations stored the triangle the renderer drew at their pixel, {} more differ only within their pixel near an edge ({:.2}% agree)",
                 c.agreed,
                 c.checked,
+                c.sub_pixel,
                 100.0 * c.rate
             );
         }

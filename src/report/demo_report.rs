@@ -227,8 +227,8 @@ For real data, replace step 2 with your lab's SMI exports (<code>meshgaze ingest
     if let Some(c) = pj.get("self_check").filter(|c| !c.is_null()) {
         let _ = write!(
             html,
-            "<li><b>Projector vs renderer</b>: {} of {} hold-phase fixations: the BVH ray through the fixation's pixel hits the triangle the rasterizer's id buffer shows there.</li>",
-            c["agreed"], c["checked"]
+            "<li><b>Projector vs renderer</b>: {} of {} hold-phase fixations stored the triangle the rasterizer's id buffer shows at their pixel; {} more differ only within their pixel, next to an edge.</li>",
+            c["agreed"], c["checked"], c["sub_pixel"]
         );
     }
     if let Some(t) = pj.get("round_trip").filter(|c| !c.is_null()) {
