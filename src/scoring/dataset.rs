@@ -185,3 +185,62 @@ pub fn score_table_markdown(entries: &[MeshEntry], mean: &[MethodSummary]) -> St
     }
     t
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn summary(method: &str, auc: f64) -> MethodSummary {
+        MethodSummary {
+            method: method.into(),
+            auc_judd_unblurred: auc,
+            auc_judd_peak: auc + 0.1,
+            auc_judd_peak_blur: 0.05,
+            chance_auc_judd_at_peak: 0.5,
+            chance_auc_judd_low_at_peak: f64::NAN,
+            chance_auc_judd_high_at_peak: f64::NAN,
+            lcc_unblurred: 0.1,
+            lcc_peak: 0.2,
+            lcc_peak_blur: 0.1,
+            nss_unblurred: 0.3,
+            gini_unblurred: 0.4,
+        }
+    }
+
+    fn entry(mesh: &str, auc: f64, draws: Vec<f64>) -> MeshEntry {
+        MeshEntry {
+            mesh: mesh.into(),
+            load: LoadReport::default(),
+            truth_kind: "vertex_map",
+            positives: 1,
+            fixations: 1,
+            human_splits: 0,
+            seconds_per_method: Vec::new(),
+            summaries: vec![summary("mc", auc)],
+            chance_auc_judd: vec![(0.05, draws)],
+        }
+    }
+
+    #[test]
+    fn the_table_is_one_markdown_table_and_the_mean_band_pairs_draws_across_meshes() {
+        let entries = [
+            entry("a", 0.6, (0..20).map(|j| 0.4 + 0.01 * j as f64).collect()),
+            entry("b", 0.8, (0..20).map(|j| 0.6 - 0.01 * j as f64).collect()),
+        ];
+        let mean = mean_summaries(&entries);
+        assert!((mean[0].auc_judd_unblurred - 0.7).abs() < 1e-12);
+        // Draw j of a plus draw j of b is always 1.0: the band of the mean has no width.
+        assert!((mean[0].chance_auc_judd_low_at_peak - 0.5).abs() < 1e-12);
+        assert!((mean[0].chance_auc_judd_high_at_peak - 0.5).abs() < 1e-12);
+        let t = score_table_markdown(&entries, &mean);
+        let lines: Vec<&str> = t.lines().collect();
+        assert_eq!(
+            lines.len(),
+            2 + 2 + 1,
+            "header, separator, 2 meshes, mean:\n{t}"
+        );
+        assert!(lines[0].starts_with("| mesh |") && lines[1].starts_with("|---|"));
+        assert!(lines.iter().all(|l| l.starts_with('|') && l.ends_with('|')));
+        assert!(lines[4].contains("0.500 [0.500, 0.500]"), "{}", lines[4]);
+    }
+}
