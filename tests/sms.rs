@@ -118,8 +118,10 @@ fn band_norm_descriptors_are_rotation_invariant() {
     let g = compute_descriptors(&grid_rot, &pts_rot, &params, &none);
     let d = relative_difference(&f.data, &g.data);
     eprintln!("descriptor change under rotation: exact field {worst_exact:.2e}, 256³ grid {d:.2e} (relative L2)");
+    // Measured 2.36e-3 at this rotation (docs/sms.md); the bound leaves 2x for other machines'
+    // float summation orders, not for a different interpolation.
     assert!(
-        d < 0.05,
+        d < 5e-3,
         "grid descriptors differ by {d} relative after rotation"
     );
 }
