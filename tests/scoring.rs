@@ -4,7 +4,7 @@ mod common;
 use std::path::{Path, PathBuf};
 
 use meshgaze::progress::Silent;
-use meshgaze::scoring::{score_mesh, ScoreParams, CHANCE, HUMAN};
+use meshgaze::scoring::{score_mesh, ScoreParams, CHANCE, CHANCE_HIGH, CHANCE_LOW, HUMAN};
 use meshgaze::truth::{load_ground_truth, GroundTruth, TruthError};
 use proptest::prelude::*;
 
@@ -115,9 +115,17 @@ fn scoring_ranks_a_perfect_map_above_chance_and_an_inverted_one_below() {
         borji_splits: 20,
         ..ScoreParams::default()
     };
+    // Height drowned in per-vertex noise: blurring averages the noise away, so this map's
+    // peak is at the blurred level, not at blur 0.
+    let noisy: Vec<f64> = height
+        .iter()
+        .enumerate()
+        .map(|(i, h)| h + 3.0 * (((i * 2_654_435_761) % 1000) as f64 / 1000.0 - 0.5))
+        .collect();
     let maps = vec![
         ("height".to_string(), height),
         ("inverted".to_string(), inverted),
+        ("noisy".to_string(), noisy),
     ];
     let score = score_mesh(&mesh, &truth, &maps, &params, &Silent).unwrap();
     let get = |method: &str, metric: &str, blur: f64| {
@@ -162,6 +170,36 @@ fn scoring_ranks_a_perfect_map_above_chance_and_an_inverted_one_below() {
         get(CHANCE, "auc_judd", best.0)
     );
     assert_eq!(summary.auc_judd_unblurred, curve[0].1);
+    // A peak away from blur 0 is found there.
+    let noisy = score
+        .summaries
+        .iter()
+        .find(|s| s.method == "noisy")
+        .unwrap();
+    let (n0, n5) = (
+        get("noisy", "auc_judd", 0.0),
+        get("noisy", "auc_judd", 0.05),
+    );
+    assert!(n5 > n0 + 0.05, "noisy: {n0} unblurred, {n5} blurred");
+    assert_eq!((noisy.auc_judd_peak_blur, noisy.auc_judd_peak), (0.05, n5));
+    assert_eq!(noisy.chance_auc_judd_at_peak, get(CHANCE, "auc_judd", 0.05));
+    // The band holds its mean, and the summary quotes it at the peak's blur.
+    for blur in [0.0, 0.05] {
+        let (lo, mid, hi) = (
+            get(CHANCE_LOW, "auc_judd", blur),
+            get(CHANCE, "auc_judd", blur),
+            get(CHANCE_HIGH, "auc_judd", blur),
+        );
+        assert!(lo < mid && mid < hi, "{lo} {mid} {hi}");
+    }
+    assert_eq!(
+        noisy.chance_auc_judd_low_at_peak,
+        get(CHANCE_LOW, "auc_judd", 0.05)
+    );
+    assert_eq!(
+        noisy.chance_auc_judd_high_at_peak,
+        get(CHANCE_HIGH, "auc_judd", 0.05)
+    );
 }
 
 proptest! {
