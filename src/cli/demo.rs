@@ -192,8 +192,9 @@ pub fn run(args: DemoArgs) -> Result<()> {
         })
         .unwrap_or_default();
     say(&format!(
-        "    fates: {totals}; self-check {}/{}; round trip {}/{} within 1° of the true target",
+        "    fates: {totals}; self-check {}+{} sub-pixel of {}; round trip {}/{} within 1° of the true target",
         pj["self_check"]["agreed"],
+        pj["self_check"]["sub_pixel"],
         pj["self_check"]["checked"],
         pj["round_trip"]["within_1deg"],
         pj["round_trip"]["matched"]

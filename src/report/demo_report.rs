@@ -84,12 +84,21 @@ fn cross(img: &mut RgbImage, cx: f64, cy: f64, r: f64, color: [u8; 3]) {
 }
 
 pub fn write_report(path: &Path, r: &ReportInputs) -> Result<()> {
-    let stim = r.stim;
-    let rows = &r.truth.rows;
     let subjects: Vec<String> = r.truth.sidecar.subjects.keys().cloned().collect();
-    let color_of = |s: &str| {
-        SUBJECT_COLORS[subjects.iter().position(|x| x == s).unwrap_or(0) % SUBJECT_COLORS.len()]
-    };
+    let mut html = header(r, subjects.len());
+    html += &pipeline_section(r)?;
+    html += &keyframes_section(r)?;
+    html += &fates_section(r)?;
+    html += &checks_section(r)?;
+    html += &maps_section(r)?;
+    html += &scores_section(r)?;
+    html += &provenance_section(r)?;
+    std::fs::write(path, html).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(())
+}
+
+/// The page's head, style and introduction.
+fn header(r: &ReportInputs, n_subjects: usize) -> String {
     let mut html = String::new();
     let _ = write!(
         html,
@@ -119,11 +128,16 @@ target model independent of all three saliency methods) with the accuracy of an 
 For real data, replace step 2 with your lab's SMI exports (<code>meshgaze ingest</code>).</p>
 "#,
         version = env!("CARGO_PKG_VERSION"),
-        n_subj = subjects.len(),
+        n_subj = n_subjects,
         total = r.total_seconds
     );
 
-    // Pipeline.
+    html
+}
+
+/// The steps, their seconds and their outputs.
+fn pipeline_section(r: &ReportInputs) -> Result<String> {
+    let mut html = String::new();
     html += "<h2>Pipeline</h2><table><tr><th>step</th><th>seconds</th><th>outputs (in this folder)</th></tr>";
     for s in r.steps {
         let _ = write!(
@@ -136,7 +150,17 @@ For real data, replace step 2 with your lab's SMI exports (<code>meshgaze ingest
     }
     html += "</table>";
 
-    // Keyframes with fixations.
+    Ok(html)
+}
+
+/// The first frame of each hold with the fixations made while it was held.
+fn keyframes_section(r: &ReportInputs) -> Result<String> {
+    let mut html = String::new();
+    let (stim, rows) = (r.stim, &r.truth.rows);
+    let subjects: Vec<String> = r.truth.sidecar.subjects.keys().cloned().collect();
+    let color_of = |s: &str| {
+        SUBJECT_COLORS[subjects.iter().position(|x| x == s).unwrap_or(0) % SUBJECT_COLORS.len()]
+    };
     html += "<h2>Stimulus keyframes and the fixations made while each view was held</h2>";
     html += "<p>Each thumbnail is the first frame of a 3 s hold. Dots are the filtered fixations (15 per subject) whose camera was that hold: filled = hit the mesh, ring = snapped to it, cross = on the background. Colour = subject: ";
     for s in &subjects {
@@ -195,7 +219,12 @@ For real data, replace step 2 with your lab's SMI exports (<code>meshgaze ingest
     }
     html += "</div>";
 
-    // Fates.
+    Ok(html)
+}
+
+/// Fixation fates per subject, with totals.
+fn fates_section(r: &ReportInputs) -> Result<String> {
+    let mut html = String::new();
     html += "<h2>What became of every fixation</h2><table><tr><th>subject</th>";
     for f in ProjectionFate::ALL {
         let _ = write!(html, "<th>{}</th>", f.name());
@@ -217,7 +246,13 @@ For real data, replace step 2 with your lab's SMI exports (<code>meshgaze ingest
     }
     html += "</tr></table><p><i>filtered</i>: removed by the protocol (first two, last two, not among the 15 longest); <i>background</i>: the gaze ray missed the mesh (meshgaze never moves them unless <code>project --snap</code> is given).</p>";
 
-    // Checks.
+    Ok(html)
+}
+
+/// The projector self-check, the round trip and the stimulus check, from project.json.
+fn checks_section(r: &ReportInputs) -> Result<String> {
+    let mut html = String::new();
+    let stim = r.stim;
     let project_json = r.out_dir.join("projection").join("project.json");
     let pj: serde_json::Value = serde_json::from_slice(
         &std::fs::read(&project_json)
@@ -247,8 +282,14 @@ For real data, replace step 2 with your lab's SMI exports (<code>meshgaze ingest
         stim.protocol.frame_count()
     );
 
-    // Maps.
-    html += "<h2>Ground truth and saliency maps</h2><p>Blue = low, red = high (each map min–max normalized). Ground truth: fixation counts blurred with σ<sub>b</sub> = ";
+    Ok(html)
+}
+
+/// The ground truth and each map painted on the mesh from the first viewpoint and the one most opposite it.
+fn maps_section(r: &ReportInputs) -> Result<String> {
+    let mut html = String::new();
+    let stim = r.stim;
+    html += "<h2>Ground truth and saliency maps</h2><p>Blue = low, red = high, by the colour rule under each picture. Ground truth: fixation counts blurred with σ<sub>b</sub> = ";
     let _ = write!(html, "{} (normalized units).</p>", r.truth.sidecar.blur);
     let first = stim.plan.directions[0];
     let back = (0..stim.plan.directions.len())
@@ -289,16 +330,24 @@ For real data, replace step 2 with your lab's SMI exports (<code>meshgaze ingest
     }
     html += "</div>";
 
-    // Scores.
-    html += "<h2>Scores</h2><table><tr><th>map</th><th>AUC-Judd σ=0</th><th>AUC-Judd peak</th><th>at σ<sub>b</sub></th><th>LCC σ=0</th><th>LCC peak</th><th>NSS σ=0</th><th>Gini</th></tr>";
+    Ok(html)
+}
+
+/// The score table and the charts.
+fn scores_section(r: &ReportInputs) -> Result<String> {
+    let mut html = String::new();
+    html += "<h2>Scores</h2><table><tr><th>map</th><th>AUC-Judd σ=0</th><th>AUC-Judd peak</th><th>at σ<sub>b</sub></th><th>chance there: mean [95%]</th><th>LCC σ=0</th><th>LCC peak</th><th>NSS σ=0</th><th>Gini</th></tr>";
     for m in &r.score.summaries {
         let _ = write!(
             html,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{} [{}, {}]</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             esc(&m.method),
             fmt3(m.auc_judd_unblurred),
             fmt3(m.auc_judd_peak),
             m.auc_judd_peak_blur,
+            fmt3(m.chance_auc_judd_at_peak),
+            fmt3(m.chance_auc_judd_low_at_peak),
+            fmt3(m.chance_auc_judd_high_at_peak),
             fmt3(m.lcc_unblurred),
             fmt3(m.lcc_peak),
             fmt3(m.nss_unblurred),
@@ -307,7 +356,7 @@ For real data, replace step 2 with your lab's SMI exports (<code>meshgaze ingest
     }
     let _ = write!(
         html,
-        "<tr><td>human (split-half, {} splits)</td><td>{}</td><td>{}</td><td>{:.2}</td><td colspan=\"4\"></td></tr></table>",
+        "<tr><td>human (split-half, {} splits)</td><td>{}</td><td>{}</td><td>{:.2}</td><td colspan=\"5\"></td></tr></table>",
         r.truth.sidecar.human_splits,
         fmt3(r.truth.sidecar.human_auc_judd_unblurred),
         fmt3(r.truth.sidecar.human_auc_judd_peak),
@@ -328,7 +377,13 @@ For real data, replace step 2 with your lab's SMI exports (<code>meshgaze ingest
     }
     html += "</div>";
 
-    // Provenance.
+    Ok(html)
+}
+
+/// Tool, command, hashes and the protocol text.
+fn provenance_section(r: &ReportInputs) -> Result<String> {
+    let mut html = String::new();
+    let stim = r.stim;
     html += "<h2>Provenance</h2><table>";
     let rowp = |html: &mut String, k: &str, v: &str| {
         let _ = write!(
@@ -364,6 +419,5 @@ For real data, replace step 2 with your lab's SMI exports (<code>meshgaze ingest
     html += "</table><p>Every stage wrote its own JSON sidecar with the parameters and input hashes: stimulus/manifest.json, recordings/simulate.json, ingest/ingest.json, projection/project.json, truth/truth.json, saliency/*.json. The protocol used:</p><pre>";
     html += &esc(&stim.protocol_toml);
     html += "</pre></body></html>\n";
-    std::fs::write(path, html).with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(())
+    Ok(html)
 }
