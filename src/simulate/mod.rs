@@ -31,7 +31,7 @@ use crate::gaze::model::{Event, EventKind, Eye, EyeSample, Header, Message, Samp
 use crate::mesh::Mesh;
 use crate::projection::{displayed_camera, RayCaster};
 use crate::stimulus::camera::{CameraPlan, CameraState, Phase};
-use crate::stimulus::protocol::Protocol;
+use crate::stimulus::protocol::{Display, Protocol};
 
 #[derive(Debug, Clone, Serialize)]
 pub struct ObserverParams {
@@ -277,6 +277,220 @@ pub fn simulate_observers(
         .collect()
 }
 
+/// A recording being written: samples at a fixed rate from `t_us` on, and numbered events.
+struct Recording {
+    rng: ChaCha8Rng,
+    samples: Vec<Sample>,
+    events: Vec<Event>,
+    number: [u64; 3],
+    t_us: i64,
+    dt_us: i64,
+    pupil: f64,
+    /// Per-sample jitter, px (RMS per axis).
+    jitter_px: f64,
+}
+
+impl Recording {
+    /// One binocular sample at `t_us` (then the clock moves on): the eye at `pos` with jitter,
+    /// or lost (SMI's (0, 0)) when `pos` is None.
+    fn sample(&mut self, pos: Option<(f64, f64)>) {
+        let (pupil, jitter) = (self.pupil, self.jitter_px);
+        let eye = |rng: &mut ChaCha8Rng| match pos {
+            Some((x, y)) => {
+                let mut n = Normal(rng);
+                let jx = n.sample() * jitter;
+                let jy = n.sample() * jitter;
+                let p = pupil + 0.02 * n.sample();
+                EyeSample {
+                    x: ((x + jx) * 100.0).round() / 100.0,
+                    y: ((y + jy) * 100.0).round() / 100.0,
+                    pupil: Some((p * 1000.0).round() / 1000.0),
+                    valid: true,
+                }
+            }
+            None => EyeSample {
+                x: 0.0,
+                y: 0.0,
+                pupil: Some(0.0),
+                valid: false,
+            },
+        };
+        let left = eye(&mut self.rng);
+        let right = eye(&mut self.rng);
+        self.samples.push(Sample {
+            time_us: self.t_us,
+            trial: 1,
+            left: Some(left),
+            right: Some(right),
+            binocular: None,
+            binocular_event: None,
+            left_event: None,
+            right_event: None,
+            stimulus: None,
+        });
+        self.t_us += self.dt_us;
+    }
+
+    /// Appends the next event of `kind` for `eye` over [s, e] µs and returns it to fill in.
+    fn event(&mut self, kind: EventKind, eye: Eye, s: i64, e: i64) -> &mut Event {
+        let slot = kind as usize;
+        self.number[slot] += 1;
+        self.events.push(Event {
+            kind,
+            eye,
+            trial: 1,
+            number: self.number[slot],
+            start_us: s,
+            end_us: e,
+            duration_us: e - s,
+            x: None,
+            y: None,
+            end_x: None,
+            end_y: None,
+            dispersion_x: None,
+            dispersion_y: None,
+            pupil_x: None,
+            pupil_y: None,
+            stimulus: None,
+            stimulus_onset_us: None,
+            participant: None,
+        });
+        self.events.last_mut().expect("just pushed")
+    }
+
+    /// A main-sequence saccade from `from` to `land` along a minimum-jerk path.
+    fn saccade(&mut self, from: (f64, f64), land: (f64, f64), ppd: f64, stop_us: i64) {
+        let amp_deg = (land.0 - from.0).hypot(land.1 - from.1) / ppd;
+        let dur_us = ((21.0 + 2.2 * amp_deg) * 1000.0) as i64;
+        let s0 = self.t_us;
+        while self.t_us < s0 + dur_us && self.t_us < stop_us {
+            let s = minimum_jerk((self.t_us - s0) as f64 / dur_us as f64);
+            self.sample(Some((
+                from.0 + s * (land.0 - from.0),
+                from.1 + s * (land.1 - from.1),
+            )));
+        }
+        let end = self.t_us - self.dt_us;
+        for eye in [Eye::Left, Eye::Right] {
+            let e = self.event(EventKind::Saccade, eye, s0, end);
+            e.x = Some(from.0);
+            e.y = Some(from.1);
+            e.end_x = Some(land.0);
+            e.end_y = Some(land.1);
+        }
+    }
+
+    /// Samples at `land` until `f_end`, and a fixation event per eye with the samples' mean,
+    /// dispersion and pupil.
+    fn fixation(&mut self, land: (f64, f64), f_end: i64) {
+        let f0 = self.t_us;
+        let first_sample = self.samples.len();
+        while self.t_us < f_end {
+            self.sample(Some(land));
+        }
+        if self.samples.len() == first_sample {
+            return;
+        }
+        let end = self.t_us - self.dt_us;
+        for eye in [Eye::Left, Eye::Right] {
+            let pts: Vec<EyeSample> = self.samples[first_sample..]
+                .iter()
+                .filter_map(|s| if eye == Eye::Left { s.left } else { s.right })
+                .collect();
+            let n = pts.len() as f64;
+            let mx = pts.iter().map(|p| p.x).sum::<f64>() / n;
+            let my = pts.iter().map(|p| p.y).sum::<f64>() / n;
+            let range = |f: fn(&EyeSample) -> f64| {
+                let (a, b) = pts
+                    .iter()
+                    .map(f)
+                    .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                        (a.min(v), b.max(v))
+                    });
+                b - a
+            };
+            let (dx, dy) = (range(|p| p.x), range(|p| p.y));
+            let pupil = self.pupil;
+            let e = self.event(EventKind::Fixation, eye, f0, end);
+            e.x = Some((mx * 100.0).round() / 100.0);
+            e.y = Some((my * 100.0).round() / 100.0);
+            e.dispersion_x = Some((dx * 100.0).round() / 100.0);
+            e.dispersion_y = Some((dy * 100.0).round() / 100.0);
+            e.pupil_x = Some(pupil);
+            e.pupil_y = Some(pupil);
+        }
+    }
+
+    /// Lost samples until `b_end` and a blink event per eye.
+    fn blink(&mut self, b_end: i64) {
+        let b0 = self.t_us;
+        while self.t_us < b_end {
+            self.sample(None);
+        }
+        let end = self.t_us - self.dt_us;
+        for eye in [Eye::Left, Eye::Right] {
+            self.event(EventKind::Blink, eye, b0, end);
+        }
+    }
+}
+
+/// Draws a visible vertex with probability ∝ its weight, at least `min_d` px from `gaze`:
+/// (vertex, x, y), or None when no candidate has weight.
+fn choose_target(
+    visible: &[(usize, f64, f64)],
+    weights: &[f64],
+    gaze: (f64, f64),
+    min_d: f64,
+    rng: &mut ChaCha8Rng,
+) -> Option<(usize, f64, f64)> {
+    let candidates: Vec<&(usize, f64, f64)> = visible
+        .iter()
+        .filter(|c| weights[c.0] > 0.0)
+        .filter(|c| (c.1 - gaze.0).hypot(c.2 - gaze.1) >= min_d)
+        .collect();
+    let total: f64 = candidates.iter().map(|c| weights[c.0]).sum();
+    if total <= 0.0 {
+        return None;
+    }
+    let mut r = rng.random::<f64>() * total;
+    let mut pick = candidates[candidates.len() - 1];
+    for c in &candidates {
+        r -= weights[c.0];
+        if r <= 0.0 {
+            pick = c;
+            break;
+        }
+    }
+    Some(*pick)
+}
+
+/// The header SMI writes for subject `k`.
+fn header_of(
+    k: usize,
+    id: &str,
+    display: &Display,
+    params: &ObserverParams,
+    head_distance_mm: f64,
+) -> Header {
+    Header {
+        banner: None,
+        entries: Vec::new(),
+        sample_rate_hz: Some(params.sample_rate_hz),
+        calibration_area_px: Some([display.width_px as f64, display.height_px as f64]),
+        stimulus_dimension_mm: Some([display.width_mm, display.height_mm]),
+        head_distance_mm: Some((head_distance_mm * 10.0).round() / 10.0),
+        subject: Some(id.to_string()),
+        date: chrono::NaiveDate::from_ymd_opt(2026, 1, 5)
+            .and_then(|d| d.and_hms_opt(10, 0, 0))
+            .map(|d| d + chrono::Duration::minutes(15 * k as i64)),
+        version: None,
+        format_items: Vec::new(),
+    }
+}
+
+/// Subject `k`: a fixation cross, the video from `onset`, a blank screen after it; fixations
+/// on targets drawn from `weights` among the vertices visible when the eye arrives, saccades
+/// between them, blinks after some.
 #[allow(clippy::too_many_arguments)]
 fn simulate_one(
     k: usize,
@@ -296,7 +510,6 @@ fn simulate_one(
     let ppd =
         head_distance_mm * 1f64.to_radians().tan() * display.width_px as f64 / display.width_mm;
     let (w, h) = (display.width_px as f64, display.height_px as f64);
-    let dt_us = (1e6 / params.sample_rate_hz).round() as i64;
     let base_us: i64 = 1_000_000_000 + 60_000_000 * k as i64;
     let onset_us = base_us + (params.lead_in_s * 1e6).round() as i64;
     let duration_s = plan.duration_s();
@@ -320,76 +533,22 @@ fn simulate_one(
         },
     ];
     let pupil = 3.2 + 0.8 * rng.random::<f64>();
-    let mut samples: Vec<Sample> = Vec::new();
-    let mut events: Vec<Event> = Vec::new();
-    let mut fixations: Vec<TrueFixation> = Vec::new();
-    let mut t_us = base_us;
-    let mut gaze = (0.5 * w, 0.5 * h);
-    let push_sample =
-        |samples: &mut Vec<Sample>, t: i64, pos: Option<(f64, f64)>, rng: &mut ChaCha8Rng| {
-            let eye = |rng: &mut ChaCha8Rng| match pos {
-                Some((x, y)) => {
-                    let mut n = Normal(rng);
-                    let jx = n.sample() * params.precision_deg * ppd;
-                    let jy = n.sample() * params.precision_deg * ppd;
-                    let p = pupil + 0.02 * n.sample();
-                    EyeSample {
-                        x: ((x + jx) * 100.0).round() / 100.0,
-                        y: ((y + jy) * 100.0).round() / 100.0,
-                        pupil: Some((p * 1000.0).round() / 1000.0),
-                        valid: true,
-                    }
-                }
-                None => EyeSample {
-                    x: 0.0,
-                    y: 0.0,
-                    pupil: Some(0.0),
-                    valid: false,
-                },
-            };
-            let left = eye(rng);
-            let right = eye(rng);
-            samples.push(Sample {
-                time_us: t,
-                trial: 1,
-                left: Some(left),
-                right: Some(right),
-                binocular: None,
-                binocular_event: None,
-                left_event: None,
-                right_event: None,
-                stimulus: None,
-            });
-        };
-    let mut number = [0u64; 3];
-    let mut event = |events: &mut Vec<Event>, kind: EventKind, eye: Eye, s: i64, e: i64| {
-        let slot = kind as usize;
-        number[slot] += 1;
-        events.push(Event {
-            kind,
-            eye,
-            trial: 1,
-            number: number[slot],
-            start_us: s,
-            end_us: e,
-            duration_us: e - s,
-            x: None,
-            y: None,
-            end_x: None,
-            end_y: None,
-            dispersion_x: None,
-            dispersion_y: None,
-            pupil_x: None,
-            pupil_y: None,
-            stimulus: None,
-            stimulus_onset_us: None,
-            participant: None,
-        });
+    let mut rec = Recording {
+        rng,
+        samples: Vec::new(),
+        events: Vec::new(),
+        number: [0; 3],
+        t_us: base_us,
+        dt_us: (1e6 / params.sample_rate_hz).round() as i64,
+        pupil,
+        jitter_px: params.precision_deg * ppd,
     };
+    let mut fixations: Vec<TrueFixation> = Vec::new();
+    let mut gaze = (0.5 * w, 0.5 * h);
     let mut index = 0;
-    while t_us < stop_us {
+    while rec.t_us < stop_us {
         // Where to look next.
-        let t_s = (t_us - onset_us) as f64 / 1e6;
+        let t_s = (rec.t_us - onset_us) as f64 / 1e6;
         let mut fix = TrueFixation {
             subject: id.clone(),
             index,
@@ -408,7 +567,7 @@ fn simulate_one(
         if t_s >= duration_s {
             fix.phase = "tail".into();
             // A blank screen: drift around the centre.
-            let mut n = Normal(&mut rng);
+            let mut n = Normal(&mut rec.rng);
             fix.target_x = 0.5 * w + 3.0 * ppd * n.sample();
             fix.target_y = 0.5 * h + 3.0 * ppd * n.sample();
         } else if t_s >= 0.0 {
@@ -417,149 +576,56 @@ fn simulate_one(
             fix.phase = cam.phase.name().into();
             fix.viewpoint = Some(cam.viewpoint);
             let min_d = params.min_saccade_deg * ppd;
-            let candidates: Vec<&(usize, f64, f64)> = visible
-                .iter()
-                .filter(|c| weights[c.0] > 0.0)
-                .filter(|c| (c.1 - gaze.0).hypot(c.2 - gaze.1) >= min_d)
-                .collect();
-            let total: f64 = candidates.iter().map(|c| weights[c.0]).sum();
-            if total > 0.0 {
-                let mut r = rng.random::<f64>() * total;
-                let mut pick = candidates[candidates.len() - 1];
-                for c in &candidates {
-                    r -= weights[c.0];
-                    if r <= 0.0 {
-                        pick = c;
-                        break;
-                    }
-                }
-                fix.vertex = Some(pick.0);
-                fix.target_x = pick.1;
-                fix.target_y = pick.2;
+            if let Some((v, x, y)) = choose_target(&visible, weights, gaze, min_d, &mut rec.rng) {
+                fix.vertex = Some(v);
+                fix.target_x = x;
+                fix.target_y = y;
             }
         }
         // Accuracy error: per-axis σ so that the RMS radius is accuracy_deg.
         let sigma = params.accuracy_deg / std::f64::consts::SQRT_2 * ppd;
         let (ox, oy) = {
-            let mut n = Normal(&mut rng);
+            let mut n = Normal(&mut rec.rng);
             (n.sample() * sigma, n.sample() * sigma)
         };
         let land = (fix.target_x + ox, fix.target_y + oy);
         // Saccade (not before the first fixation).
         if index > 0 {
-            let amp_deg = (land.0 - gaze.0).hypot(land.1 - gaze.1) / ppd;
-            let dur_us = ((21.0 + 2.2 * amp_deg) * 1000.0) as i64;
-            let s0 = t_us;
-            let from = gaze;
-            while t_us < s0 + dur_us && t_us < stop_us {
-                let s = minimum_jerk((t_us - s0) as f64 / dur_us as f64);
-                let p = (
-                    from.0 + s * (land.0 - from.0),
-                    from.1 + s * (land.1 - from.1),
-                );
-                push_sample(&mut samples, t_us, Some(p), &mut rng);
-                t_us += dt_us;
-            }
-            for eye in [Eye::Left, Eye::Right] {
-                event(&mut events, EventKind::Saccade, eye, s0, t_us - dt_us);
-                let e = events.last_mut().expect("just pushed");
-                e.x = Some(from.0);
-                e.y = Some(from.1);
-                e.end_x = Some(land.0);
-                e.end_y = Some(land.1);
-            }
+            rec.saccade(gaze, land, ppd, stop_us);
         }
         // The fixation: in the lead-in it lasts until shortly after onset (first saccade
         // latency ~ 200 ms).
         let dur_ms = if index == 0 {
-            params.lead_in_s * 1000.0 + 150.0 + 100.0 * rng.random::<f64>()
+            params.lead_in_s * 1000.0 + 150.0 + 100.0 * rec.rng.random::<f64>()
         } else {
-            let z = Normal(&mut rng).sample();
+            let z = Normal(&mut rec.rng).sample();
             (params.fixation_median_ms * (params.fixation_sigma_log * z).exp())
                 .clamp(params.fixation_min_ms, params.fixation_max_ms)
         };
-        let f0 = t_us;
-        let f_end = (f0 + (dur_ms * 1000.0) as i64).min(stop_us);
-        let first_sample = samples.len();
-        while t_us < f_end {
-            push_sample(&mut samples, t_us, Some(land), &mut rng);
-            t_us += dt_us;
-        }
+        let f0 = rec.t_us;
+        rec.fixation(land, (f0 + (dur_ms * 1000.0) as i64).min(stop_us));
         gaze = land;
         fix.start_us = f0;
-        fix.end_us = t_us;
+        fix.end_us = rec.t_us;
         fix.start_ms = (f0 - onset_us) as f64 / 1000.0;
-        fix.duration_ms = (t_us - f0) as f64 / 1000.0;
+        fix.duration_ms = (rec.t_us - f0) as f64 / 1000.0;
         fix.gaze_x = land.0;
         fix.gaze_y = land.1;
-        let fs = &samples[first_sample..];
-        if !fs.is_empty() {
-            for (eye, pick) in [
-                (
-                    Eye::Left,
-                    (|s: &Sample| s.left) as fn(&Sample) -> Option<EyeSample>,
-                ),
-                (Eye::Right, |s: &Sample| s.right),
-            ] {
-                let pts: Vec<EyeSample> = fs.iter().filter_map(pick).collect();
-                let n = pts.len() as f64;
-                let mx = pts.iter().map(|p| p.x).sum::<f64>() / n;
-                let my = pts.iter().map(|p| p.y).sum::<f64>() / n;
-                let range = |f: fn(&EyeSample) -> f64| {
-                    let (a, b) = pts
-                        .iter()
-                        .map(f)
-                        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-                            (a.min(v), b.max(v))
-                        });
-                    b - a
-                };
-                event(&mut events, EventKind::Fixation, eye, f0, t_us - dt_us);
-                let e = events.last_mut().expect("just pushed");
-                e.x = Some((mx * 100.0).round() / 100.0);
-                e.y = Some((my * 100.0).round() / 100.0);
-                e.dispersion_x = Some((range(|p| p.x) * 100.0).round() / 100.0);
-                e.dispersion_y = Some((range(|p| p.y) * 100.0).round() / 100.0);
-                e.pupil_x = Some(pupil);
-                e.pupil_y = Some(pupil);
-            }
-        }
         fixations.push(fix);
         index += 1;
         // A blink after some fixations.
-        if index > 1 && t_us < stop_us && rng.random::<f64>() < params.blink_probability {
-            let b0 = t_us;
-            let b_end = (b0 + ((100.0 + 150.0 * rng.random::<f64>()) * 1000.0) as i64).min(stop_us);
-            while t_us < b_end {
-                push_sample(&mut samples, t_us, None, &mut rng);
-                t_us += dt_us;
-            }
-            for eye in [Eye::Left, Eye::Right] {
-                event(&mut events, EventKind::Blink, eye, b0, t_us - dt_us);
-            }
+        if index > 1 && rec.t_us < stop_us && rec.rng.random::<f64>() < params.blink_probability {
+            let lasts_us = ((100.0 + 150.0 * rec.rng.random::<f64>()) * 1000.0) as i64;
+            rec.blink((rec.t_us + lasts_us).min(stop_us));
         }
     }
-    let header = Header {
-        banner: None,
-        entries: Vec::new(),
-        sample_rate_hz: Some(params.sample_rate_hz),
-        calibration_area_px: Some([w, h]),
-        stimulus_dimension_mm: Some([display.width_mm, display.height_mm]),
-        head_distance_mm: Some((head_distance_mm * 10.0).round() / 10.0),
-        subject: Some(id.clone()),
-        date: chrono::NaiveDate::from_ymd_opt(2026, 1, 5)
-            .and_then(|d| d.and_hms_opt(10, 0, 0))
-            .map(|d| d + chrono::Duration::minutes(15 * k as i64)),
-        version: None,
-        format_items: Vec::new(),
-    };
     Ok(VirtualSubject {
+        header: header_of(k, &id, display, params, head_distance_mm),
         id,
         head_distance_mm,
-        header,
-        samples,
+        samples: rec.samples,
         messages,
-        events,
+        events: rec.events,
         fixations,
     })
 }
