@@ -180,7 +180,6 @@ pub fn render_stimulus(
     let t0 = Instant::now();
     std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
     let plan = CameraPlan::new(mesh, protocol)?;
-    let mut raster = Rasterizer::new(mesh);
     let (w, h) = (protocol.display.width_px, protocol.display.height_px);
     let fps = protocol.video.fps;
     let n_frames = protocol.frame_count();
@@ -197,80 +196,21 @@ pub fn render_stimulus(
         video.check_by_decoding()?;
     }
     let timeline_path = out_dir.join("timeline.csv");
-    let mut timeline = std::io::BufWriter::new(
-        std::fs::File::create(&timeline_path)
-            .map_err(|e| format!("{}: {e}", timeline_path.display()))?,
-    );
-    let io = |e: std::io::Error| format!("{}: {e}", timeline_path.display());
-    writeln!(timeline, "{}", timeline_header()).map_err(io)?;
     let frames_dir = out_dir.join("frames");
     if options.frames != FrameImages::None || options.id_buffer {
         std::fs::create_dir_all(&frames_dir)
             .map_err(|e| format!("{}: {e}", frames_dir.display()))?;
     }
-    let (mut render_s, mut encode_s) = (0.0, 0.0);
-    let (mut rendered, mut reused) = (0, 0);
-    let mut cached: Option<(usize, Vec<u8>)> = None; // (viewpoint, image) of the current hold
-    let overlays = protocol.sync.photodiode || protocol.sync.frame_counter;
-    progress.start("rendering + encoding", n_frames as u64);
-    for i in 0..n_frames {
-        let cam = plan.at(i as f64 / fps as f64);
-        writeln!(timeline, "{}", timeline_row(i, &cam)).map_err(io)?;
-        let tr = Instant::now();
-        let hold_start =
-            cam.phase == Phase::Hold && cached.as_ref().is_none_or(|c| c.0 != cam.viewpoint);
-        let reuse =
-            cam.phase == Phase::Hold && cached.as_ref().is_some_and(|c| c.0 == cam.viewpoint);
-        if reuse {
-            reused += 1;
-        } else {
-            rendered += 1;
-            let img = raster.render(&cam, &protocol.rendering);
-            cached = Some((
-                if cam.phase == Phase::Hold {
-                    cam.viewpoint
-                } else {
-                    usize::MAX
-                },
-                img,
-            ));
-        }
-        let image = &cached.as_ref().expect("rendered above").1;
-        let with_overlays;
-        let frame: &[u8] = if overlays {
-            let mut f = image.clone();
-            overlay::apply(&mut f, w as usize, h as usize, i, cam.phase, &protocol.sync);
-            with_overlays = f;
-            &with_overlays
-        } else {
-            image
-        };
-        render_s += tr.elapsed().as_secs_f64();
-        if options.frames == FrameImages::All
-            || (options.frames == FrameImages::Keyframes && hold_start)
-        {
-            save_png(&frames_dir.join(format!("frame_{i:05}.png")), frame, w, h)?;
-        }
-        if options.id_buffer && hold_start {
-            let ids = raster.triangle_ids(&cam);
-            // 24-bit id + 1 in RGB (0 = background): exact for up to 16.7 million triangles.
-            let rgb: Vec<u8> = ids
-                .iter()
-                .flat_map(|&t| {
-                    let v = if t == raster::BACKGROUND_ID { 0 } else { t + 1 };
-                    [(v >> 16) as u8, (v >> 8) as u8, v as u8]
-                })
-                .collect();
-            save_png(&frames_dir.join(format!("ids_{i:05}.png")), &rgb, w, h)?;
-        }
-        let te = Instant::now();
-        video.push(frame)?;
-        encode_s += te.elapsed().as_secs_f64();
-        progress.advance(1);
-    }
-    progress.finish();
-    timeline.flush().map_err(io)?;
-    drop(timeline);
+    let counts = render_frames(
+        mesh,
+        &plan,
+        protocol,
+        &mut video,
+        &timeline_path,
+        &frames_dir,
+        options,
+        progress,
+    )?;
     let (frames, checker) = video.finish()?;
     let verify = checker.map(|c| VerifyReport {
         frames_decoded: c.frames_decoded,
@@ -313,11 +253,11 @@ pub fn render_stimulus(
         },
         camera: plan,
         timings: Timings {
-            render_s,
-            encode_s,
+            render_s: counts.render_s,
+            encode_s: counts.encode_s,
             total_s: t0.elapsed().as_secs_f64(),
-            frames_rendered: rendered,
-            frames_reused: reused,
+            frames_rendered: counts.rendered,
+            frames_reused: counts.reused,
         },
         verify,
     };
@@ -326,6 +266,113 @@ pub fn render_stimulus(
     std::fs::write(&manifest_path, json)
         .map_err(|e| format!("{}: {e}", manifest_path.display()))?;
     Ok(manifest)
+}
+
+/// Where the frame loop's time went and how many frames it drew.
+struct FrameCounts {
+    render_s: f64,
+    encode_s: f64,
+    rendered: usize,
+    reused: usize,
+}
+
+/// Every frame: its timeline row, its picture (drawn once per hold, every frame of a move),
+/// the sync overlays, the optional PNGs, and the encoder.
+#[allow(clippy::too_many_arguments)]
+fn render_frames(
+    mesh: &Mesh,
+    plan: &CameraPlan,
+    protocol: &Protocol,
+    video: &mut video::Mp4Writer,
+    timeline_path: &Path,
+    frames_dir: &Path,
+    options: &StimulusOptions,
+    progress: &dyn Progress,
+) -> Result<FrameCounts, String> {
+    let mut raster = Rasterizer::new(mesh);
+    let (w, h) = (protocol.display.width_px, protocol.display.height_px);
+    let fps = protocol.video.fps;
+    let n_frames = protocol.frame_count();
+    let mut timeline = std::io::BufWriter::new(
+        std::fs::File::create(timeline_path)
+            .map_err(|e| format!("{}: {e}", timeline_path.display()))?,
+    );
+    let io = |e: std::io::Error| format!("{}: {e}", timeline_path.display());
+    writeln!(timeline, "{}", timeline_header()).map_err(io)?;
+    let mut counts = FrameCounts {
+        render_s: 0.0,
+        encode_s: 0.0,
+        rendered: 0,
+        reused: 0,
+    };
+    let mut cached: Option<(usize, Vec<u8>)> = None; // (viewpoint, image) of the current hold
+    let overlays = protocol.sync.photodiode || protocol.sync.frame_counter;
+    progress.start("rendering + encoding", n_frames as u64);
+    for i in 0..n_frames {
+        let cam = plan.at(i as f64 / fps as f64);
+        writeln!(timeline, "{}", timeline_row(i, &cam)).map_err(io)?;
+        let tr = Instant::now();
+        let hold_start =
+            cam.phase == Phase::Hold && cached.as_ref().is_none_or(|c| c.0 != cam.viewpoint);
+        let reuse =
+            cam.phase == Phase::Hold && cached.as_ref().is_some_and(|c| c.0 == cam.viewpoint);
+        if reuse {
+            counts.reused += 1;
+        } else {
+            counts.rendered += 1;
+            let img = raster.render(&cam, &protocol.rendering);
+            let key = if cam.phase == Phase::Hold {
+                cam.viewpoint
+            } else {
+                usize::MAX
+            };
+            cached = Some((key, img));
+        }
+        let image = &cached.as_ref().expect("rendered above").1;
+        let with_overlays;
+        let frame: &[u8] = if overlays {
+            let mut f = image.clone();
+            overlay::apply(&mut f, w as usize, h as usize, i, cam.phase, &protocol.sync);
+            with_overlays = f;
+            &with_overlays
+        } else {
+            image
+        };
+        counts.render_s += tr.elapsed().as_secs_f64();
+        if options.frames == FrameImages::All
+            || (options.frames == FrameImages::Keyframes && hold_start)
+        {
+            save_png(&frames_dir.join(format!("frame_{i:05}.png")), frame, w, h)?;
+        }
+        if options.id_buffer && hold_start {
+            save_id_buffer(
+                &mut raster,
+                &cam,
+                &frames_dir.join(format!("ids_{i:05}.png")),
+            )?;
+        }
+        let te = Instant::now();
+        video.push(frame)?;
+        counts.encode_s += te.elapsed().as_secs_f64();
+        progress.advance(1);
+    }
+    progress.finish();
+    timeline.flush().map_err(io)?;
+    Ok(counts)
+}
+
+/// The triangle under each pixel as a PNG: 24-bit id + 1 in RGB (0 = background), exact for
+/// up to 16.7 million triangles.
+fn save_id_buffer(raster: &mut Rasterizer, cam: &CameraState, path: &Path) -> Result<(), String> {
+    let ids = raster.triangle_ids(cam);
+    let rgb: Vec<u8> = ids
+        .iter()
+        .flat_map(|&t| {
+            let v = if t == raster::BACKGROUND_ID { 0 } else { t + 1 };
+            [(v >> 16) as u8, (v >> 8) as u8, v as u8]
+        })
+        .collect();
+    save_png(path, &rgb, cam.width_px, cam.height_px)
 }
 
 /// Where a stimulus folder keeps its files.

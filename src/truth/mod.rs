@@ -160,17 +160,12 @@ pub fn load_ground_truth(
     top_fraction: f64,
 ) -> Result<GroundTruth, TruthError> {
     let text = read_text(path)?;
-    let at = |line: usize, column: usize, message: String| TruthError::At {
-        path: path.to_path_buf(),
-        line,
-        column,
-        message,
-    };
-    let mut lines = text
+    let lines: Vec<(usize, &str)> = text
         .lines()
         .enumerate()
-        .filter(|(_, l)| !l.trim().is_empty());
-    let Some((first_no, first)) = lines.next() else {
+        .filter(|(_, l)| !l.trim().is_empty())
+        .collect();
+    let Some(&(first_no, first)) = lines.first() else {
         return Err(TruthError::File {
             path: path.to_path_buf(),
             message: "the file is empty".into(),
@@ -182,75 +177,127 @@ pub fn load_ground_truth(
         .map(|(_, f)| f.trim().to_ascii_lowercase())
         .collect();
     let is_header = header.iter().any(|h| h.parse::<f64>().is_err());
-    if is_header && header.contains(&"subject".to_string()) {
-        let col = |name: &str| header.iter().position(|h| h == name);
-        let subject_col = col("subject").expect("checked");
-        let vertex_col = col("vertex").ok_or_else(|| {
-            at(
-                first_no + 1,
-                1,
-                "a fixation file needs a `vertex` column beside `subject`".into(),
+    let table = Table {
+        path,
+        sep,
+        header_line: first_no,
+        header: is_header.then_some(header.as_slice()),
+    };
+    if is_header && header.iter().any(|h| h == "subject") {
+        return read_fixation_rows(&table, &lines[1..], n_vertices).map(GroundTruth::Fixations);
+    }
+    let body = if is_header { &lines[1..] } else { &lines[..] };
+    let width = header.len();
+    read_vertex_map(&table, body, width, n_vertices, top_fraction).map(GroundTruth::VertexMap)
+}
+
+/// A delimited text file being read: its path (for messages), separator and header.
+struct Table<'a> {
+    path: &'a Path,
+    sep: Option<char>,
+    /// 0-based line of the first non-empty line.
+    header_line: usize,
+    /// Lower-cased header names, when the first line is a header.
+    header: Option<&'a [String]>,
+}
+
+impl Table<'_> {
+    fn at(&self, line: usize, column: usize, message: String) -> TruthError {
+        TruthError::At {
+            path: self.path.to_path_buf(),
+            line,
+            column,
+            message,
+        }
+    }
+
+    fn col(&self, name: &str) -> Option<usize> {
+        self.header?.iter().position(|h| h == name)
+    }
+}
+
+/// A fixation set: `subject,vertex[,...,fate]`; rows whose fate is not hit or snapped are
+/// counted by fate, not read.
+fn read_fixation_rows(
+    t: &Table,
+    lines: &[(usize, &str)],
+    n_vertices: usize,
+) -> Result<FixationTruth, TruthError> {
+    let subject_col = t.col("subject").expect("checked by the caller");
+    let vertex_col = t.col("vertex").ok_or_else(|| {
+        t.at(
+            t.header_line + 1,
+            1,
+            "a fixation file needs a `vertex` column beside `subject`".into(),
+        )
+    })?;
+    let fate_col = t.col("fate");
+    let mut fixations = Vec::new();
+    let mut subjects: Vec<String> = Vec::new();
+    let mut not_on_mesh = BTreeMap::new();
+    let mut rows = 0;
+    for &(no, line) in lines {
+        rows += 1;
+        let f = fields(line, t.sep);
+        let get = |c: usize, name: &str| {
+            f.get(c).copied().ok_or_else(|| {
+                t.at(
+                    no + 1,
+                    line.len() + 1,
+                    format!("the row has no `{name}` value (column {})", c + 1),
+                )
+            })
+        };
+        if let Some(fc) = fate_col {
+            let fate = get(fc, "fate")?.1.trim();
+            if fate != "hit" && fate != "snapped" {
+                *not_on_mesh.entry(fate.to_string()).or_insert(0) += 1;
+                continue;
+            }
+        }
+        let subject = get(subject_col, "subject")?.1.trim().to_string();
+        let (vc, vtext) = get(vertex_col, "vertex")?;
+        let vertex: usize = vtext.trim().parse().map_err(|_| {
+            t.at(
+                no + 1,
+                vc,
+                format!("expected a vertex index, found `{vtext}`"),
             )
         })?;
-        let fate_col = col("fate");
-        let mut fixations = Vec::new();
-        let mut subjects: Vec<String> = Vec::new();
-        let mut not_on_mesh = BTreeMap::new();
-        let mut rows = 0;
-        for (no, line) in lines {
-            rows += 1;
-            let f = fields(line, sep);
-            let get = |c: usize, name: &str| {
-                f.get(c).copied().ok_or_else(|| {
-                    at(
-                        no + 1,
-                        line.len() + 1,
-                        format!("the row has no `{name}` value (column {})", c + 1),
-                    )
-                })
-            };
-            if let Some(fc) = fate_col {
-                let fate = get(fc, "fate")?.1.trim();
-                if fate != "hit" && fate != "snapped" {
-                    *not_on_mesh.entry(fate.to_string()).or_insert(0) += 1;
-                    continue;
-                }
-            }
-            let subject = get(subject_col, "subject")?.1.trim().to_string();
-            let (vc, vtext) = get(vertex_col, "vertex")?;
-            let vertex: usize = vtext.trim().parse().map_err(|_| {
-                at(
-                    no + 1,
-                    vc,
-                    format!("expected a vertex index, found `{vtext}`"),
-                )
-            })?;
-            if vertex >= n_vertices {
-                return Err(at(
-                    no + 1,
-                    vc,
-                    format!("vertex {vertex} is out of range: the mesh has {n_vertices} vertices"),
-                ));
-            }
-            if !subjects.contains(&subject) {
-                subjects.push(subject.clone());
-            }
-            fixations.push(Fixation { subject, vertex });
+        if vertex >= n_vertices {
+            return Err(t.at(
+                no + 1,
+                vc,
+                format!("vertex {vertex} is out of range: the mesh has {n_vertices} vertices"),
+            ));
         }
-        return Ok(GroundTruth::Fixations(FixationTruth {
-            fixations,
-            subjects,
-            rows,
-            rows_not_on_mesh: not_on_mesh,
-        }));
+        if !subjects.contains(&subject) {
+            subjects.push(subject.clone());
+        }
+        fixations.push(Fixation { subject, vertex });
     }
-    // A per-vertex map. With a header, `vertex,<value>[,<flag>]` (meshgaze's own CSV) is read
-    // by name; without, one row per vertex: `value` or `value flag`.
+    Ok(FixationTruth {
+        fixations,
+        subjects,
+        rows,
+        rows_not_on_mesh: not_on_mesh,
+    })
+}
+
+/// A per-vertex map. With a header, `vertex,<value>[,<flag>]` (meshgaze's own CSV) is read by
+/// name; without, one row per vertex: `value` or `value flag` (`width` fields in the first).
+fn read_vertex_map(
+    t: &Table,
+    body: &[(usize, &str)],
+    width: usize,
+    n_vertices: usize,
+    top_fraction: f64,
+) -> Result<VertexTruth, TruthError> {
     let value_col;
     let mut flag_col = None;
     let mut vertex_col = None;
-    let body: Vec<(usize, &str)> = if is_header {
-        vertex_col = header.iter().position(|h| h == "vertex");
+    if let Some(header) = t.header {
+        vertex_col = t.col("vertex");
         let others: Vec<usize> = (0..header.len())
             .filter(|&i| Some(i) != vertex_col)
             .collect();
@@ -261,38 +308,37 @@ pub fn load_ground_truth(
                 flag_col = Some(*f);
             }
             _ => {
-                return Err(at(
-                    first_no + 1,
+                return Err(t.at(
+                    t.header_line + 1,
                     1,
                     "expected a header `vertex,value`, `vertex,value,flag`, or `subject,vertex,...` for fixations".into(),
                 ))
             }
         }
-        lines.collect()
     } else {
         value_col = 0;
-        if header.len() >= 2 {
+        if width >= 2 {
             flag_col = Some(1);
         }
-        std::iter::once((first_no, first)).chain(lines).collect()
-    };
+    }
     let mut values = vec![f64::NAN; n_vertices];
     let mut flags = flag_col.map(|_| vec![false; n_vertices]);
-    for (row, (no, line)) in body.iter().enumerate() {
-        let f = fields(line, sep);
+    for (row, &(no, line)) in body.iter().enumerate() {
+        let f = fields(line, t.sep);
         let vertex = match vertex_col {
             Some(c) => {
-                let (col, t) = f
+                let (col, v) = f
                     .get(c)
                     .copied()
-                    .ok_or_else(|| at(no + 1, 1, "missing vertex index".into()))?;
-                t.parse::<usize>()
-                    .map_err(|_| at(no + 1, col, format!("expected a vertex index, found `{t}`")))?
+                    .ok_or_else(|| t.at(no + 1, 1, "missing vertex index".into()))?;
+                v.parse::<usize>().map_err(|_| {
+                    t.at(no + 1, col, format!("expected a vertex index, found `{v}`"))
+                })?
             }
             None => row,
         };
         if vertex >= n_vertices {
-            return Err(at(
+            return Err(t.at(
                 no + 1,
                 1,
                 format!(
@@ -300,63 +346,74 @@ pub fn load_ground_truth(
                 ),
             ));
         }
-        let (col, t) = f
+        let (col, v) = f
             .get(value_col)
             .copied()
-            .ok_or_else(|| at(no + 1, 1, "missing value".into()))?;
-        let v: f64 = t
+            .ok_or_else(|| t.at(no + 1, 1, "missing value".into()))?;
+        let value: f64 = v
             .parse()
-            .map_err(|_| at(no + 1, col, format!("expected a number, found `{t}`")))?;
-        if !v.is_finite() {
-            return Err(at(no + 1, col, format!("the value `{t}` is not finite")));
+            .map_err(|_| t.at(no + 1, col, format!("expected a number, found `{v}`")))?;
+        if !value.is_finite() {
+            return Err(t.at(no + 1, col, format!("the value `{v}` is not finite")));
         }
-        values[vertex] = v;
+        values[vertex] = value;
         if let (Some(fc), Some(fl)) = (flag_col, flags.as_mut()) {
-            let (col, t) = f
+            let (col, v) = f
                 .get(fc)
                 .copied()
-                .ok_or_else(|| at(no + 1, line.len() + 1, "missing flag".into()))?;
-            fl[vertex] = match t.parse::<f64>() {
+                .ok_or_else(|| t.at(no + 1, line.len() + 1, "missing flag".into()))?;
+            fl[vertex] = match v.parse::<f64>() {
                 Ok(0.0) => false,
                 Ok(1.0) => true,
-                _ => return Err(at(no + 1, col, format!("expected a 0/1 flag, found `{t}`"))),
+                _ => return Err(t.at(no + 1, col, format!("expected a 0/1 flag, found `{v}`"))),
             };
         }
     }
     let missing = values.iter().filter(|v| v.is_nan()).count();
     if missing > 0 {
         return Err(TruthError::File {
-            path: path.to_path_buf(),
+            path: t.path.to_path_buf(),
             message: format!(
                 "{missing} of the mesh's {n_vertices} vertices have no value (the file has {} rows): is it for this mesh?",
                 body.len()
             ),
         });
     }
-    let (positive, rule) = match flags {
-        Some(f) => (f, "flag column (1 = fixated)".to_string()),
-        None => {
-            let k = ((top_fraction * n_vertices as f64).round() as usize).clamp(1, n_vertices);
-            let mut order: Vec<usize> = (0..n_vertices).collect();
-            order.sort_by(|&a, &b| values[b].total_cmp(&values[a]).then(a.cmp(&b)));
-            let mut p = vec![false; n_vertices];
-            for &i in &order[..k] {
-                p[i] = true;
-            }
-            (
-                p,
-                format!(
-                    "top {:.1}% of vertices by value ({k})",
-                    100.0 * top_fraction
-                ),
-            )
-        }
-    };
-    Ok(GroundTruth::VertexMap(VertexTruth {
+    let (positive, positive_rule) = positives_of(&values, flags, top_fraction);
+    Ok(VertexTruth {
         values,
         positive,
-        positive_rule: rule,
-    }))
+        positive_rule,
+    })
+}
+
+/// The positives of a vertex map: its flags when it has them, else the top fraction by value
+/// (ties to the lower index); with the rule in words.
+fn positives_of(
+    values: &[f64],
+    flags: Option<Vec<bool>>,
+    top_fraction: f64,
+) -> (Vec<bool>, String) {
+    if let Some(f) = flags {
+        return (f, "flag column (1 = fixated)".to_string());
+    }
+    let n = values.len();
+    let k = ((top_fraction * n as f64).round() as usize)
+        .clamp(1, n.max(1))
+        .min(n);
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| values[b].total_cmp(&values[a]).then(a.cmp(&b)));
+    let mut p = vec![false; n];
+    for &i in &order[..k] {
+        p[i] = true;
+    }
+    (
+        p,
+        format!(
+            "top {:.1}% of vertices by value ({k})",
+            100.0 * top_fraction
+        ),
+    )
 }
 
 /// The fixation set of projected rows (hit and snapped fixations; the rest counted by fate).
