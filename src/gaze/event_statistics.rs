@@ -38,11 +38,81 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             message: format!("no `{name}` column: not a BeGaze Event Statistics export"),
         })
     };
-    let start_c = need("Event Start Trial Time [ms]")?;
-    let end_c = need("Event End Trial Time [ms]")?;
-    let duration_c = col("Event Duration [ms]");
-    // Classification: `Category` + `Eye L/R`, or per-eye category columns.
-    let mut streams: Vec<(usize, Option<usize>, Eye)> = Vec::new();
+    let cols = Columns {
+        start: need("Event Start Trial Time [ms]")?,
+        end: need("Event End Trial Time [ms]")?,
+        duration: col("Event Duration [ms]"),
+        trial: col("Trial"),
+        stimulus: col("Stimulus"),
+        participant: col("Participant"),
+        streams: streams_of(&columns, path)?,
+        names: &columns,
+        sep,
+    };
+    let mut rows = RowAccount {
+        lines: all.len(),
+        header_lines: 1,
+        ..Default::default()
+    };
+    let mut header = Header::default();
+    let mut events = Vec::new();
+    let mut number_per_stream = std::collections::HashMap::new();
+    for &(no, line) in &all[1..] {
+        let Some(f) = table_row(line, no, sep, columns.len(), &mut rows) else {
+            continue;
+        };
+        let (kind, eye) = match cols.category(&f) {
+            Ok(k) => k,
+            Err((reason, c)) => {
+                rows.reject(&reason, no, c, line);
+                continue;
+            }
+        };
+        let Some(mut event) = cols.event(&f, kind, eye, no, line, &mut rows) else {
+            continue;
+        };
+        if header.subject.is_none() {
+            header.subject = event.participant.clone();
+        }
+        let n = number_per_stream
+            .entry((event.participant.clone(), event.trial, eye, kind as u8))
+            .or_insert(0u64);
+        *n += 1;
+        event.number = *n;
+        events.push(event);
+        rows.events += 1;
+    }
+    events.sort_by(|a, b| {
+        (&a.participant, a.trial, a.start_us, a.eye, a.number).cmp(&(
+            &b.participant,
+            b.trial,
+            b.start_us,
+            b.eye,
+            b.number,
+        ))
+    });
+    let notes = notes_of(&events, sep);
+    Ok(Recording {
+        file: path.to_string(),
+        format: SmiFormat::EventStatistics,
+        header,
+        columns,
+        samples: Vec::new(),
+        messages: Vec::new(),
+        events,
+        rows,
+        notes,
+    })
+}
+
+/// Where an event's classification is: `Category` + `Eye L/R`, or per-eye category columns
+/// (column, eye column, the eye when there is no eye column).
+fn streams_of(
+    columns: &[String],
+    path: &str,
+) -> Result<Vec<(usize, Option<usize>, Eye)>, GazeError> {
+    let col = |name: &str| columns.iter().position(|c| c == name);
+    let mut streams = Vec::new();
     if let Some(c) = col("Category") {
         streams.push((c, col("Eye L/R"), Eye::Left));
     }
@@ -63,26 +133,30 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             message: "no `Category` (or `Category Left/Right/Binocular`) column".into(),
         });
     }
-    let (trial_c, stimulus_c, participant_c) = (col("Trial"), col("Stimulus"), col("Participant"));
-    let mut rows = RowAccount {
-        lines: all.len(),
-        header_lines: 1,
-        ..Default::default()
-    };
-    let mut header = Header::default();
-    let mut events = Vec::new();
-    let mut number_per_stream = std::collections::HashMap::new();
-    'rows: for &(no, line) in &all[1..] {
-        let Some(f) = table_row(line, no, sep, columns.len(), &mut rows) else {
-            continue;
-        };
-        // The event's stream: the first category column that names an event.
-        let mut found = None;
-        for &(c, eye_c, default_eye) in &streams {
+    Ok(streams)
+}
+
+/// Which column holds what, and the separator of the numbers.
+struct Columns<'a> {
+    start: usize,
+    end: usize,
+    duration: Option<usize>,
+    trial: Option<usize>,
+    stimulus: Option<usize>,
+    participant: Option<usize>,
+    streams: Vec<(usize, Option<usize>, Eye)>,
+    names: &'a [String],
+    sep: Separator,
+}
+
+impl Columns<'_> {
+    /// The row's event kind and eye: from the first category column that names an event; or
+    /// why the row is not an event, and the column to point at.
+    fn category(&self, f: &[(usize, &str)]) -> Result<(EventKind, Eye), (String, usize)> {
+        for &(c, eye_c, default_eye) in &self.streams {
             let cat = f[c].1.trim();
             if cat == "Separator" {
-                rows.reject("`Separator` row (between trials)", no, f[c].0, line);
-                continue 'rows;
+                return Err(("`Separator` row (between trials)".into(), f[c].0));
             }
             if let Some(kind) = kind_of(cat) {
                 let eye = match eye_c.map(|e| f[e].1.trim()) {
@@ -91,49 +165,63 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
                     Some(_) | None if eye_c.is_none() => default_eye,
                     _ => Eye::Binocular,
                 };
-                found = Some((kind, eye));
-                break;
+                return Ok((kind, eye));
             }
         }
-        let Some((kind, eye)) = found else {
-            let c = streams[0].0;
-            let cat = f[c].1.trim();
-            let reason = if is_missing(cat) {
-                "no event category (`-`)".to_string()
-            } else {
-                format!("event category `{cat}` not used by meshgaze")
-            };
-            rows.reject(&reason, no, f[c].0, line);
-            continue;
+        let c = self.streams[0].0;
+        let cat = f[c].1.trim();
+        let reason = if is_missing(cat) {
+            "no event category (`-`)".to_string()
+        } else {
+            format!("event category `{cat}` not used by meshgaze")
         };
+        Err((reason, f[c].0))
+    }
+
+    /// The row's event (numbered later); None when a field is unusable (counted in `rows`).
+    fn event(
+        &self,
+        f: &[(usize, &str)],
+        kind: EventKind,
+        eye: Eye,
+        no: usize,
+        line: &str,
+        rows: &mut RowAccount,
+    ) -> Option<Event> {
+        let sep = self.sep;
         let ms = |i: usize, name: &str, rows: &mut RowAccount| -> Result<Option<f64>, ()> {
             number(f[i].1, sep)
                 .map_err(|_| rows.reject(&format!("`{name}` is not a number"), no, f[i].0, line))
         };
-        let Ok(Some(start_ms)) = ms(start_c, "Event Start Trial Time [ms]", &mut rows) else {
-            if number(f[start_c].1, sep).is_ok() {
+        let Ok(Some(start_ms)) = ms(self.start, "Event Start Trial Time [ms]", rows) else {
+            if number(f[self.start].1, sep).is_ok() {
                 rows.reject(
                     "missing `Event Start Trial Time [ms]`",
                     no,
-                    f[start_c].0,
+                    f[self.start].0,
                     line,
                 );
             }
-            continue;
+            return None;
         };
-        let Ok(Some(end_ms)) = ms(end_c, "Event End Trial Time [ms]", &mut rows) else {
-            if number(f[end_c].1, sep).is_ok() {
-                rows.reject("missing `Event End Trial Time [ms]`", no, f[end_c].0, line);
+        let Ok(Some(end_ms)) = ms(self.end, "Event End Trial Time [ms]", rows) else {
+            if number(f[self.end].1, sep).is_ok() {
+                rows.reject(
+                    "missing `Event End Trial Time [ms]`",
+                    no,
+                    f[self.end].0,
+                    line,
+                );
             }
-            continue;
+            return None;
         };
-        let duration_ms = match duration_c.map(|c| ms(c, "Event Duration [ms]", &mut rows)) {
-            Some(Err(())) => continue,
+        let duration_ms = match self.duration.map(|c| ms(c, "Event Duration [ms]", rows)) {
+            Some(Err(())) => return None,
             Some(Ok(Some(d))) => d,
             _ => end_ms - start_ms,
         };
         let mut real = |name: &str| -> Result<Option<f64>, ()> {
-            match field(&columns, &f, name) {
+            match field(self.names, f, name) {
                 Some((c, t)) => number(t, sep)
                     .map_err(|_| rows.reject(&format!("`{name}` is not a number"), no, c, line)),
                 None => Ok(None),
@@ -143,7 +231,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             real("Event Start Raw Time [ms]"),
             real("Event End Raw Time [ms]"),
         ) else {
-            continue;
+            return None;
         };
         let (Ok(fx), Ok(fy), Ok(sx), Ok(sy), Ok(ex), Ok(ey), Ok(dx), Ok(dy), Ok(pupil)) = (
             real("Fixation Position X [px]"),
@@ -156,13 +244,14 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             real("Fixation Dispersion Y [px]"),
             real("Fixation Average Pupil Diameter [mm]"),
         ) else {
-            continue;
+            return None;
         };
         if end_ms < start_ms {
             rows.reject("event ends before it starts", no, 1, line);
-            continue;
+            return None;
         }
-        let trial = trial_c
+        let trial = self
+            .trial
             .map(|c| f[c].1.trim())
             .and_then(|t| {
                 t.trim_start_matches(|ch: char| !ch.is_ascii_digit())
@@ -170,12 +259,10 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
                     .ok()
             })
             .unwrap_or(1);
-        let participant = participant_c
+        let participant = self
+            .participant
             .map(|c| f[c].1.trim().to_string())
             .filter(|p| !is_missing(p));
-        if header.subject.is_none() {
-            header.subject = participant.clone();
-        }
         // The tracker clock, when the export has the raw times: the stimulus onset is where
         // the trial time is zero on that clock.
         let (start_us, end_us, stimulus_onset_us) = match (raw_start, raw_end) {
@@ -190,20 +277,16 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
                 None,
             ),
         };
-        let n = number_per_stream
-            .entry((participant.clone(), trial, eye, kind as u8))
-            .or_insert(0u64);
-        *n += 1;
         let (x, y) = if kind == EventKind::Saccade {
             (sx, sy)
         } else {
             (fx, fy)
         };
-        events.push(Event {
+        Some(Event {
             kind,
             eye,
             trial,
-            number: *n,
+            number: 0,
             start_us,
             end_us,
             duration_us: (duration_ms * 1000.0).round() as i64,
@@ -215,23 +298,18 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             dispersion_y: dy,
             pupil_x: pupil,
             pupil_y: None,
-            stimulus: stimulus_c
+            stimulus: self
+                .stimulus
                 .map(|c| f[c].1.trim().to_string())
                 .filter(|s| !is_missing(s)),
             stimulus_onset_us,
             participant,
-        });
-        rows.events += 1;
+        })
     }
-    events.sort_by(|a, b| {
-        (&a.participant, a.trial, a.start_us, a.eye, a.number).cmp(&(
-            &b.participant,
-            b.trial,
-            b.start_us,
-            b.eye,
-            b.number,
-        ))
-    });
+}
+
+/// What the reader tells the user about the file: its clock, its participants, its separator.
+fn notes_of(events: &[Event], sep: Separator) -> Vec<String> {
     let raw_clock = events.iter().any(|e| e.stimulus_onset_us.is_some());
     let mut notes = vec![if raw_clock {
         "event times from the `Event Start/End Raw Time [ms]` columns (the tracker clock)"
@@ -253,15 +331,5 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     if sep != Separator::Tab {
         notes.push(format!("fields separated by {sep:?}"));
     }
-    Ok(Recording {
-        file: path.to_string(),
-        format: SmiFormat::EventStatistics,
-        header,
-        columns,
-        samples: Vec::new(),
-        messages: Vec::new(),
-        events,
-        rows,
-        notes,
-    })
+    notes
 }

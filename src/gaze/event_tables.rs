@@ -74,20 +74,12 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         let s = sep.unwrap_or(Separator::Tab);
         let f = split(line, s);
         let kind_text = f[0].1.trim();
-        let (table, kind, eye) = if let Some(e) = kind_text.strip_prefix("Fixation ") {
-            ("Fixations", Some(EventKind::Fixation), e)
-        } else if let Some(e) = kind_text.strip_prefix("Saccade ") {
-            ("Saccades", Some(EventKind::Saccade), e)
-        } else if let Some(e) = kind_text.strip_prefix("Blink ") {
-            ("Blinks", Some(EventKind::Blink), e)
-        } else if kind_text == "UserEvent" {
-            ("User Events", None, "")
-        } else if kind_text.starts_with("Trigger") || kind_text.starts_with("TriggerLine") {
-            rows.reject("trigger-line event (not used by meshgaze)", no, 1, line);
-            continue;
-        } else {
-            rows.reject(&format!("unknown event type `{kind_text}`"), no, 1, line);
-            continue;
+        let (table, kind, eye) = match row_kind(kind_text) {
+            Ok(k) => k,
+            Err(reason) => {
+                rows.reject(&reason, no, 1, line);
+                continue;
+            }
         };
         let Some(cols) = tables.get(table) else {
             rows.reject(
@@ -98,43 +90,120 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             );
             continue;
         };
-        let col = |name: &str| cols.iter().position(|c| c == name);
-        let field = |name: &str| col(name).and_then(|c| f.get(c)).copied();
-        let int = |name: &str, rows: &mut RowAccount| -> Option<i64> {
-            match field(name).map(|(c, t)| (c, integer(t))) {
-                Some((_, Ok(Some(v)))) => Some(v),
-                Some((c, _)) => {
-                    rows.reject(&format!("`{name}` is not an integer"), no, c, line);
-                    None
-                }
-                None => {
-                    rows.reject(
-                        &format!("row has no `{name}` field"),
-                        no,
-                        line.len() + 1,
-                        line,
-                    );
-                    None
-                }
+        let row = Row {
+            cols,
+            fields: &f,
+            sep: s,
+            no,
+            line,
+        };
+        match row.parse(kind, eye, &mut rows) {
+            Some(Parsed::Event(e)) => {
+                events.push(e);
+                rows.events += 1;
             }
-        };
-        let Some(trial) = int("Trial", &mut rows) else {
-            continue;
-        };
-        let Some(start) = int("Start", &mut rows) else {
-            continue;
-        };
+            Some(Parsed::Message(m)) => {
+                messages.push(m);
+                rows.messages += 1;
+            }
+            None => {}
+        }
+    }
+    // IDF Event Detector writes each trial's left-eye events, then its right-eye events.
+    events.sort_by_key(|e| (e.trial, e.start_us, e.eye, e.number));
+    messages.sort_by_key(|m| (m.trial, m.time_us));
+    Ok(Recording {
+        file: path.to_string(),
+        format: SmiFormat::EventTables,
+        header,
+        columns: columns_all,
+        samples: Vec::new(),
+        messages,
+        events,
+        rows,
+        notes,
+    })
+}
+
+/// The table a row belongs to, its event kind (None for a user event / message) and its eye
+/// letter; or why the row is not read.
+fn row_kind(kind_text: &str) -> Result<(&'static str, Option<EventKind>, &str), String> {
+    if let Some(e) = kind_text.strip_prefix("Fixation ") {
+        Ok(("Fixations", Some(EventKind::Fixation), e))
+    } else if let Some(e) = kind_text.strip_prefix("Saccade ") {
+        Ok(("Saccades", Some(EventKind::Saccade), e))
+    } else if let Some(e) = kind_text.strip_prefix("Blink ") {
+        Ok(("Blinks", Some(EventKind::Blink), e))
+    } else if kind_text == "UserEvent" {
+        Ok(("User Events", None, ""))
+    } else if kind_text.starts_with("Trigger") || kind_text.starts_with("TriggerLine") {
+        Err("trigger-line event (not used by meshgaze)".into())
+    } else {
+        Err(format!("unknown event type `{kind_text}`"))
+    }
+}
+
+enum Parsed {
+    Event(Event),
+    Message(Message),
+}
+
+/// One data row with the columns of its table.
+struct Row<'a> {
+    cols: &'a [String],
+    fields: &'a [(usize, &'a str)],
+    sep: Separator,
+    /// 1-based line number and the line, for messages.
+    no: usize,
+    line: &'a str,
+}
+
+impl Row<'_> {
+    fn field(&self, name: &str) -> Option<(usize, &str)> {
+        let c = self.cols.iter().position(|c| c == name)?;
+        self.fields.get(c).copied()
+    }
+
+    /// An integer field; a missing or malformed one rejects the row (counted in `rows`).
+    fn int(&self, name: &str, rows: &mut RowAccount) -> Option<i64> {
+        match self.field(name).map(|(c, t)| (c, integer(t))) {
+            Some((_, Ok(Some(v)))) => Some(v),
+            Some((c, _)) => {
+                rows.reject(
+                    &format!("`{name}` is not an integer"),
+                    self.no,
+                    c,
+                    self.line,
+                );
+                None
+            }
+            None => {
+                rows.reject(
+                    &format!("row has no `{name}` field"),
+                    self.no,
+                    self.line.len() + 1,
+                    self.line,
+                );
+                None
+            }
+        }
+    }
+
+    /// The row as an event or a message; None when rejected (and counted in `rows`).
+    fn parse(&self, kind: Option<EventKind>, eye: &str, rows: &mut RowAccount) -> Option<Parsed> {
+        let (no, line) = (self.no, self.line);
+        let trial = self.int("Trial", rows)?;
+        let start = self.int("Start", rows)?;
         let Some(kind) = kind else {
-            let text = field("Description")
+            let text = self
+                .field("Description")
                 .map(|(_, t)| message_text(t))
                 .unwrap_or_default();
-            messages.push(Message {
+            return Some(Parsed::Message(Message {
                 time_us: start,
                 trial: trial.clamp(0, u32::MAX as i64) as u32,
                 text,
-            });
-            rows.messages += 1;
-            continue;
+            }));
         };
         let eye = match eye.trim() {
             "L" => Eye::Left,
@@ -148,22 +217,16 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
                     1,
                     line,
                 );
-                continue;
+                return None;
             }
         };
-        let Some(number_) = int("Number", &mut rows) else {
-            continue;
-        };
-        let Some(end) = int("End", &mut rows) else {
-            continue;
-        };
-        let Some(duration) = int("Duration", &mut rows) else {
-            continue;
-        };
+        let number_ = self.int("Number", rows)?;
+        let end = self.int("End", rows)?;
+        let duration = self.int("Duration", rows)?;
         let mut bad = None;
         let mut real = |names: &[&str]| -> Option<f64> {
-            let (c, t) = names.iter().find_map(|n| field(n))?;
-            match number(t, s) {
+            let (c, t) = names.iter().find_map(|n| self.field(n))?;
+            match number(t, self.sep) {
                 Ok(v) => v,
                 Err(()) => {
                     bad.get_or_insert((c, names[0].to_string()));
@@ -193,13 +256,13 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         };
         if let Some((c, name)) = bad {
             rows.reject(&format!("`{name}` is not a number"), no, c, line);
-            continue;
+            return None;
         }
         if end < start || duration < 0 {
             rows.reject("event ends before it starts", no, 1, line);
-            continue;
+            return None;
         }
-        events.push(Event {
+        Some(Parsed::Event(Event {
             kind,
             eye,
             trial: trial.clamp(0, u32::MAX as i64) as u32,
@@ -218,21 +281,6 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             stimulus: None,
             stimulus_onset_us: None,
             participant: None,
-        });
-        rows.events += 1;
+        }))
     }
-    // IDF Event Detector writes each trial's left-eye events, then its right-eye events.
-    events.sort_by_key(|e| (e.trial, e.start_us, e.eye, e.number));
-    messages.sort_by_key(|m| (m.trial, m.time_us));
-    Ok(Recording {
-        file: path.to_string(),
-        format: SmiFormat::EventTables,
-        header,
-        columns: columns_all,
-        samples: Vec::new(),
-        messages,
-        events,
-        rows,
-        notes,
-    })
 }
