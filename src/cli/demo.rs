@@ -4,20 +4,28 @@ use std::time::Instant;
 use anyhow::{Context, Result};
 use clap::Args;
 
-use meshgaze::mesh::{parse_mesh_bytes, MeshFormat};
+use meshgaze::mesh::{parse_mesh_bytes, LoadReport, Mesh, MeshFormat};
 use meshgaze::provenance::InputFile;
 use meshgaze::saliency::Method;
-use meshgaze::scoring::{score_mesh, ScoreParams};
-use meshgaze::stimulus::load::load_stimulus;
+use meshgaze::scoring::{score_mesh, MeshScore, ScoreParams};
+use meshgaze::stimulus::load::{load_stimulus, LoadedStimulus};
 use meshgaze::stimulus::{render_stimulus, FrameImages, Protocol, StimulusOptions};
 
 use super::progress_bar::Bars;
+use meshgaze::file_bytes::create_output_dir;
+use meshgaze::gaze::ingest::{
+    check_one_source_per_subject, ingest_file, write_ingest_json, write_ingest_tables, IngestParams,
+};
+use meshgaze::projection::project_file::{project_files, write_projection, ProjectOptions};
 use meshgaze::report::demo_report::{write_report, ReportInputs, StepTiming};
 use meshgaze::report::score_plots::write_score_plots;
 use meshgaze::saliency::map_file::{compute_and_write_map, MapOutputs};
 use meshgaze::saliency::SmsParams;
 use meshgaze::scoring::dataset::{write_score_rows, SCORE_CSV_HEADER};
-use meshgaze::truth::{build_truth, read_projections, write_truth, TruthParams};
+use meshgaze::simulate::{
+    extremity_map, simulate_observers, write_simulation, ObserverParams, TargetModel,
+};
+use meshgaze::truth::{build_truth, read_projections, write_truth, TruthParams, TruthResult};
 
 /// The Stanford bunny (8,171 vertices) compiled into the binary, so the demo needs no files.
 const BUNNY: &[u8] = include_bytes!("../../stimuli/meshes/bun_zipper_res2.ply");
@@ -49,14 +57,6 @@ pub struct DemoArgs {
     /// No progress bars.
     #[arg(short, long)]
     pub quiet: bool,
-}
-
-/// Parses a command's arguments as if typed, so the demo runs exactly what a user would.
-fn args_of<T: clap::Args + clap::FromArgMatches>(argv: &[String]) -> Result<T> {
-    let m = T::augment_args(clap::Command::new("meshgaze")).try_get_matches_from(
-        std::iter::once("meshgaze".to_string()).chain(argv.iter().cloned()),
-    )?;
-    Ok(T::from_arg_matches(&m)?)
 }
 
 fn s(p: &Path) -> String {
@@ -121,20 +121,8 @@ pub fn run(args: DemoArgs) -> Result<()> {
     ));
     let t = Instant::now();
     let rec_dir = out.join("recordings");
-    // The fast middle steps run quietly; the demo reports their results in one line each.
-    let q = vec!["--quiet".to_string()];
-    let mut argv = vec![
-        "--stimulus".into(),
-        s(&stim_dir),
-        "-o".into(),
-        s(&rec_dir),
-        "--subjects".into(),
-        args.subjects.to_string(),
-        "--seed".into(),
-        args.seed.to_string(),
-    ];
-    argv.extend(q.clone());
-    super::simulate::run(args_of(&argv)?)?;
+    let stim = load_stimulus(&stim_dir, None).map_err(anyhow::Error::msg)?;
+    simulate_step(&stim, &rec_dir, args.subjects, args.seed)?;
     step(
         "simulate",
         t,
@@ -145,17 +133,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
     say("3/7 ingesting the recordings: I-DT fixations, drop 2 first / 2 last, keep 15 longest");
     let t = Instant::now();
     let ing_dir = out.join("ingest");
-    let mut argv: Vec<String> = (1..=args.subjects)
-        .map(|k| s(&rec_dir.join(format!("s{k:02}_samples.txt"))))
-        .collect();
-    argv.extend([
-        "-o".into(),
-        s(&ing_dir),
-        "--protocol".into(),
-        s(&protocol_path),
-    ]);
-    argv.extend(q.clone());
-    super::ingest::run(args_of(&argv)?)?;
+    ingest_step(&protocol, &rec_dir, &ing_dir, args.subjects)?;
     step(
         "ingest",
         t,
@@ -166,45 +144,27 @@ pub fn run(args: DemoArgs) -> Result<()> {
     say("4/7 projecting fixations onto the mesh (BVH, watertight rays, nearest vertex)");
     let t = Instant::now();
     let proj_dir = out.join("projection");
-    let mut argv = vec![
-        "--stimulus".into(),
-        s(&stim_dir),
-        "--fixations".into(),
-        s(&ing_dir.join("fixations.csv")),
-        "-o".into(),
-        s(&proj_dir),
-        "--targets".into(),
-        s(&rec_dir.join("targets.csv")),
-    ];
-    argv.extend(q.clone());
-    super::project::run(args_of(&argv)?)?;
+    let options = ProjectOptions {
+        targets: Some(rec_dir.join("targets.csv")),
+        self_check: true,
+        ..ProjectOptions::default()
+    };
+    let run = project_files(
+        &stim,
+        &[ing_dir.join("fixations.csv")],
+        &options,
+        &meshgaze::progress::Silent,
+    )?;
+    write_projection(&proj_dir, &run)?;
     step("project", t, "projection/projected.csv, project.json");
     let pj: serde_json::Value =
         serde_json::from_slice(&std::fs::read(proj_dir.join("project.json"))?)?;
-    let totals = pj["totals"]
-        .as_object()
-        .map(|m| {
-            m.iter()
-                .filter(|(_, v)| v.as_u64() != Some(0))
-                .map(|(k, v)| format!("{v} {k}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        })
-        .unwrap_or_default();
-    say(&format!(
-        "    fates: {totals}; self-check {}+{} sub-pixel of {}; round trip {}/{} within 1° of the true target",
-        pj["self_check"]["agreed"],
-        pj["self_check"]["sub_pixel"],
-        pj["self_check"]["checked"],
-        pj["round_trip"]["within_1deg"],
-        pj["round_trip"]["matched"]
-    ));
+    say(&projection_summary(&pj));
 
     // 5. Ground truth.
     say("5/7 building the ground truth and the split-half human ceiling");
     let t = Instant::now();
     let truth_dir = out.join("truth");
-    let stim = load_stimulus(&stim_dir, None).map_err(anyhow::Error::msg)?;
     let projections = read_projections(&stim, &[proj_dir.join("projected.csv")])?;
     let truth = build_truth(&stim, projections, &TruthParams::default(), &bars)?;
     write_truth(&truth_dir, &stim, &truth)?;
@@ -218,43 +178,13 @@ pub fn run(args: DemoArgs) -> Result<()> {
     say("6/7 computing saliency: SMS (the paper's method), MS (Lee 2005), MC (mean curvature)");
     let t = Instant::now();
     let sal_dir = out.join("saliency");
-    let mut maps = Vec::new();
-    let mut seconds = Vec::new();
-    let mut ginis = Vec::new();
-    for method in [Method::Sms, Method::Ms, Method::Mc] {
-        let r = compute_and_write_map(
-            &mesh_path,
-            &mesh,
-            &load,
-            InputFile::hash(&mesh_path)?,
-            method,
-            &SmsParams::default(),
-            MapOutputs::default(),
-            &sal_dir.join(format!("bunny_{}", method.name())),
-            &meshgaze::progress::Silent,
-        )?;
-        seconds.push((method.name().to_string(), r.seconds));
-        ginis.push((method.name(), r.gini));
-        maps.push((method.name().to_string(), r.values));
-    }
+    let (maps, seconds, ginis) = saliency_step(&mesh_path, &mesh, &load, &sal_dir)?;
     step("saliency", t, "saliency/bunny_{sms,ms,mc}.csv, .ply, .json");
 
     // 7. Scores and report.
     say("7/7 scoring against the ground truth and writing report.html");
     let t = Instant::now();
-    let score_dir = out.join("score");
-    std::fs::create_dir_all(&score_dir)?;
-    let params = ScoreParams::default();
-    let score =
-        score_mesh(&mesh, &truth.truth, &maps, &params, &bars).map_err(anyhow::Error::msg)?;
-    let mut csv = format!("{SCORE_CSV_HEADER}\n").into_bytes();
-    write_score_rows(&mut csv, "bunny", &score.rows)?;
-    std::fs::write(score_dir.join("score.csv"), csv)?;
-    std::fs::write(
-        score_dir.join("score.json"),
-        serde_json::to_string_pretty(&score.summaries)? + "\n",
-    )?;
-    let plots = write_score_plots(&score_dir.join("score"), "bunny", &maps, &score)?;
+    let (score, plots) = score_step(&mesh, &truth, &maps, &out.join("score"), &bars)?;
     step(
         "score",
         t,
@@ -276,20 +206,7 @@ pub fn run(args: DemoArgs) -> Result<()> {
         },
     )?;
     if !args.quiet {
-        for m in &score.summaries {
-            let gini = ginis
-                .iter()
-                .find(|g| g.0 == m.method)
-                .map_or(String::new(), |g| format!("; Gini {:.3}", g.1));
-            eprintln!(
-                "  {:<7} AUC-Judd {:.3} unblurred, {:.3} peak at σ_b {:.2}{gini}",
-                m.method, m.auc_judd_unblurred, m.auc_judd_peak, m.auc_judd_peak_blur
-            );
-        }
-        eprintln!(
-            "  human   AUC-Judd {:.3} peak at σ_b {:.2} (split-half ceiling)",
-            truth.sidecar.human_auc_judd_peak, truth.sidecar.human_auc_judd_peak_blur
-        );
+        print_scores(&score, &ginis, &truth);
         eprintln!(
             "meshgaze demo: done in {:.1} s. Open {} in a browser.",
             t_all.elapsed().as_secs_f64(),
@@ -298,4 +215,149 @@ pub fn run(args: DemoArgs) -> Result<()> {
     }
     println!("{}", report.display());
     Ok(())
+}
+
+/// Step 2: virtual observers drawn by the extremity model, written as SMI exports.
+fn simulate_step(stim: &LoadedStimulus, rec_dir: &Path, subjects: usize, seed: u64) -> Result<()> {
+    let params = ObserverParams {
+        subjects,
+        seed,
+        ..ObserverParams::default()
+    };
+    let stimulus_name = format!("{}.mp4", stim.mesh_stem());
+    let simulated = simulate_observers(
+        &stim.mesh,
+        &stim.plan,
+        &stim.protocol,
+        &TargetModel::Saliency(extremity_map(&stim.mesh)),
+        &stimulus_name,
+        &params,
+    )
+    .map_err(anyhow::Error::msg)?;
+    write_simulation(
+        rec_dir,
+        &simulated,
+        vec![
+            InputFile::hash(&stim.manifest_path)?,
+            InputFile::hash(&stim.mesh_path)?,
+        ],
+        &stimulus_name,
+        "extremity (distance from the centroid)",
+        &params,
+    )
+    .map_err(anyhow::Error::msg)
+}
+
+/// Step 3: the subjects' format-A recordings through ingest with the protocol's rules.
+fn ingest_step(protocol: &Protocol, rec_dir: &Path, ing_dir: &Path, subjects: usize) -> Result<()> {
+    let params = IngestParams::from_protocol(protocol, None).map_err(anyhow::Error::msg)?;
+    let mut files = Vec::new();
+    let mut inputs = Vec::new();
+    for k in 1..=subjects {
+        let path = rec_dir.join(format!("s{k:02}_samples.txt"));
+        files.push(ingest_file(&path, &params).map_err(anyhow::Error::msg)?);
+        inputs.push(InputFile::hash(&path)?);
+    }
+    check_one_source_per_subject(&files).map_err(anyhow::Error::msg)?;
+    create_output_dir(ing_dir)?;
+    write_ingest_tables(ing_dir, &files).map_err(anyhow::Error::msg)?;
+    write_ingest_json(ing_dir, &files, inputs, protocol, &params).map_err(anyhow::Error::msg)?;
+    Ok(())
+}
+
+/// One line on the projection: fates, the self-check and the round trip.
+fn projection_summary(pj: &serde_json::Value) -> String {
+    let totals = pj["totals"]
+        .as_object()
+        .map(|m| {
+            m.iter()
+                .filter(|(_, v)| v.as_u64() != Some(0))
+                .map(|(k, v)| format!("{v} {k}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        })
+        .unwrap_or_default();
+    format!(
+        "    fates: {totals}; self-check {}+{} sub-pixel of {}; round trip {}/{} within 1° of the true target",
+        pj["self_check"]["agreed"],
+        pj["self_check"]["sub_pixel"],
+        pj["self_check"]["checked"],
+        pj["round_trip"]["within_1deg"],
+        pj["round_trip"]["matched"]
+    )
+}
+
+/// The three maps the demo scores, with their seconds and Gini indices.
+type DemoMaps = (
+    Vec<(String, Vec<f64>)>,
+    Vec<(String, f64)>,
+    Vec<(&'static str, f64)>,
+);
+
+/// Step 6: SMS, MS and MC, each written as the `saliency` command writes it.
+fn saliency_step(
+    mesh_path: &Path,
+    mesh: &Mesh,
+    load: &LoadReport,
+    sal_dir: &Path,
+) -> Result<DemoMaps> {
+    let mut maps = Vec::new();
+    let mut seconds = Vec::new();
+    let mut ginis = Vec::new();
+    for method in [Method::Sms, Method::Ms, Method::Mc] {
+        let r = compute_and_write_map(
+            mesh_path,
+            mesh,
+            load,
+            InputFile::hash(mesh_path)?,
+            method,
+            &SmsParams::default(),
+            MapOutputs::default(),
+            &sal_dir.join(format!("bunny_{}", method.name())),
+            &meshgaze::progress::Silent,
+        )?;
+        seconds.push((method.name().to_string(), r.seconds));
+        ginis.push((method.name(), r.gini));
+        maps.push((method.name().to_string(), r.values));
+    }
+    Ok((maps, seconds, ginis))
+}
+
+fn print_scores(score: &MeshScore, ginis: &[(&str, f64)], truth: &TruthResult) {
+    for m in &score.summaries {
+        let gini = ginis
+            .iter()
+            .find(|g| g.0 == m.method)
+            .map_or(String::new(), |g| format!("; Gini {:.3}", g.1));
+        eprintln!(
+            "  {:<7} AUC-Judd {:.3} unblurred, {:.3} peak at σ_b {:.2}{gini}",
+            m.method, m.auc_judd_unblurred, m.auc_judd_peak, m.auc_judd_peak_blur
+        );
+    }
+    eprintln!(
+        "  human   AUC-Judd {:.3} peak at σ_b {:.2} (split-half ceiling)",
+        truth.sidecar.human_auc_judd_peak, truth.sidecar.human_auc_judd_peak_blur
+    );
+}
+
+/// Step 7: the maps scored against the truth: score.csv, score.json and the charts.
+fn score_step(
+    mesh: &Mesh,
+    truth: &TruthResult,
+    maps: &[(String, Vec<f64>)],
+    score_dir: &Path,
+    bars: &Bars,
+) -> Result<(MeshScore, Vec<String>)> {
+    create_output_dir(score_dir)?;
+    let score = score_mesh(mesh, &truth.truth, maps, &ScoreParams::default(), bars)
+        .map_err(anyhow::Error::msg)?;
+    let mut csv = format!("{SCORE_CSV_HEADER}\n").into_bytes();
+    write_score_rows(&mut csv, "bunny", &score.rows)?;
+    std::fs::write(score_dir.join("score.csv"), csv)?;
+    std::fs::write(
+        score_dir.join("score.json"),
+        serde_json::to_string_pretty(&score.summaries)? + "\n",
+    )?;
+    let plots = write_score_plots(&score_dir.join("score"), "bunny", maps, &score)?;
+    Ok((score, plots))
 }

@@ -4,18 +4,16 @@ use std::path::PathBuf;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use serde::Serialize;
 
 use meshgaze::file_bytes::create_output_dir;
-use meshgaze::gaze::fixations::{Detector, DetectorParams, EyePolicy, Fate, Fixation};
+use meshgaze::gaze::fixations::{Detector, EyePolicy, Fate, Fixation};
 use meshgaze::gaze::ingest::{
-    check_one_source_per_subject, ingest_file, message_kind_counts, write_ingest_tables,
-    write_samples_rows, IngestParams, IngestedFile, SAMPLES_CSV_HEADER,
+    check_one_source_per_subject, ingest_file, message_kind_counts, stimuli_of, write_ingest_json,
+    write_ingest_tables, write_samples_rows, IngestParams, IngestedFile, SAMPLES_CSV_HEADER,
 };
-use meshgaze::gaze::model::{Header, RowAccount};
 use meshgaze::gaze::stimulus_messages::{classify_messages, message_census, stimulus_segments};
 use meshgaze::gaze::{read_smi, SmiFormat};
-use meshgaze::provenance::{InputFile, Provenance};
+use meshgaze::provenance::InputFile;
 use meshgaze::stimulus::Protocol;
 
 /// Read SMI eye-tracker exports, find fixations, apply the protocol's filter, report quality.
@@ -92,35 +90,6 @@ pub struct IngestArgs {
     pub samples: bool,
     #[arg(short, long)]
     pub quiet: bool,
-}
-
-#[derive(Serialize)]
-struct FileEntry {
-    file: String,
-    format: SmiFormat,
-    subject: String,
-    detector: Detector,
-    header: Header,
-    rows: RowAccount,
-    notes: Vec<String>,
-    messages: BTreeMap<&'static str, usize>,
-    stimuli: Vec<String>,
-    fixations: usize,
-}
-
-#[derive(Serialize)]
-struct Sidecar<'a> {
-    provenance: Provenance,
-    protocol: &'a str,
-    drop_first: usize,
-    drop_last: usize,
-    keep_longest: usize,
-    eye_policy: EyePolicy,
-    detector_params: &'a DetectorParams,
-    stimulus_pattern: Option<&'a str>,
-    stimulus_end_pattern: Option<&'a str>,
-    max_stimulus_s: f64,
-    files: Vec<FileEntry>,
 }
 
 fn params(args: &IngestArgs, protocol: &Protocol) -> Result<IngestParams> {
@@ -231,18 +200,6 @@ fn print_file_summary(f: &IngestedFile) {
     }
 }
 
-fn stimuli_of(f: &IngestedFile) -> Vec<String> {
-    let mut v: Vec<String> = f
-        .fixations
-        .iter()
-        .filter(|x| !x.stimulus.is_empty())
-        .map(|x| x.stimulus.clone())
-        .collect();
-    v.sort();
-    v.dedup();
-    v
-}
-
 fn create(path: &std::path::Path) -> Result<std::io::BufWriter<std::fs::File>> {
     Ok(std::io::BufWriter::new(
         std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?,
@@ -289,46 +246,8 @@ pub fn run(args: IngestArgs) -> Result<()> {
         out.join("messages.csv"),
         out.join("quality.csv"),
     );
-    let rules = &protocol.fixations;
-    let sidecar = Sidecar {
-        provenance: Provenance::new(inputs),
-        protocol: &protocol.name,
-        drop_first: rules.drop_first,
-        drop_last: rules.drop_last,
-        keep_longest: rules.keep_longest,
-        eye_policy: args.eye,
-        detector_params: &params.detector_params,
-        stimulus_pattern: params
-            .segmentation
-            .pattern
-            .as_ref()
-            .map(|p| p.start.as_str()),
-        stimulus_end_pattern: params
-            .segmentation
-            .pattern
-            .as_ref()
-            .and_then(|p| p.end.as_ref())
-            .map(|e| e.as_str()),
-        max_stimulus_s: protocol.duration_s(),
-        files: files
-            .iter()
-            .map(|f| FileEntry {
-                file: f.path.display().to_string(),
-                format: f.recording.format,
-                subject: f.subject.clone(),
-                detector: f.detector,
-                header: f.recording.header.clone(),
-                rows: f.recording.rows.clone(),
-                notes: f.recording.notes.clone(),
-                messages: message_kind_counts(&f.messages),
-                stimuli: stimuli_of(f),
-                fixations: f.fixations.len(),
-            })
-            .collect(),
-    };
-    let j = out.join("ingest.json");
-    std::fs::write(&j, serde_json::to_string_pretty(&sidecar)? + "\n")
-        .with_context(|| format!("cannot write {}", j.display()))?;
+    let j =
+        write_ingest_json(&out, &files, inputs, &protocol, &params).map_err(anyhow::Error::msg)?;
     if !args.quiet {
         eprintln!(
             "wrote {}, {}, {}, {}",

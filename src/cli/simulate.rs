@@ -4,12 +4,12 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde::Serialize;
 
-use meshgaze::gaze::writers::{write_events_c1, write_samples_a};
+use meshgaze::gaze::writers::write_samples_a;
 use meshgaze::progress::Progress;
-use meshgaze::provenance::{InputFile, Provenance};
+use meshgaze::provenance::InputFile;
 use meshgaze::saliency::{compute_saliency, Method, SmsParams};
 use meshgaze::simulate::{
-    extremity_map, simulate_observers, write_targets_csv, ObserverParams, TargetModel,
+    extremity_map, simulate_observers, write_simulation, ObserverParams, TargetModel,
 };
 use meshgaze::stimulus::load::load_stimulus;
 use meshgaze::truth::{load_ground_truth, GroundTruth};
@@ -93,26 +93,6 @@ pub enum BuiltinModel {
     Extremity,
     /// Every visible vertex equally.
     Uniform,
-}
-
-#[derive(Serialize)]
-struct Sidecar<'a> {
-    provenance: Provenance,
-    stimulus_name: &'a str,
-    model: String,
-    parameters: &'a ObserverParams,
-    subjects: Vec<SubjectFacts>,
-}
-
-#[derive(Serialize)]
-struct SubjectFacts {
-    id: String,
-    head_distance_mm: f64,
-    samples: usize,
-    lost_samples: usize,
-    fixations: usize,
-    fixations_with_target: usize,
-    files: [String; 2],
 }
 
 fn observer_params(args: &SimulateArgs) -> Result<ObserverParams> {
@@ -228,51 +208,15 @@ pub fn run(args: SimulateArgs) -> Result<()> {
     )
     .map_err(anyhow::Error::msg)?;
     bars.finish();
-    std::fs::create_dir_all(&args.output)
-        .with_context(|| format!("cannot create {}", args.output.display()))?;
-    let mut facts = Vec::new();
-    for s in &subjects {
-        let a = format!("{}_samples.txt", s.id);
-        let c = format!("{}_events.txt", s.id);
-        let pa = args.output.join(&a);
-        std::fs::write(&pa, write_samples_a(&s.header, &s.samples, &s.messages))
-            .with_context(|| format!("cannot write {}", pa.display()))?;
-        let pc = args.output.join(&c);
-        std::fs::write(&pc, write_events_c1(&s.header, &s.events, &s.messages))
-            .with_context(|| format!("cannot write {}", pc.display()))?;
-        facts.push(SubjectFacts {
-            id: s.id.clone(),
-            head_distance_mm: s.head_distance_mm,
-            samples: s.samples.len(),
-            lost_samples: s
-                .samples
-                .iter()
-                .filter(|x| !x.left.is_some_and(|e| e.valid))
-                .count(),
-            fixations: s.fixations.len(),
-            fixations_with_target: s.fixations.iter().filter(|f| f.vertex.is_some()).count(),
-            files: [a, c],
-        });
-    }
-    let tp = args.output.join("targets.csv");
-    write_targets_csv(
-        std::io::BufWriter::new(
-            std::fs::File::create(&tp)
-                .with_context(|| format!("cannot create {}", tp.display()))?,
-        ),
+    write_simulation(
+        &args.output,
         &subjects,
+        inputs,
+        &stimulus_name,
+        &model_name,
+        &params,
     )
     .map_err(anyhow::Error::msg)?;
-    let sidecar = Sidecar {
-        provenance: Provenance::new(inputs),
-        stimulus_name: &stimulus_name,
-        model: model_name.clone(),
-        parameters: &params,
-        subjects: facts,
-    };
-    let jp = args.output.join("simulate.json");
-    std::fs::write(&jp, serde_json::to_string_pretty(&sidecar)? + "\n")
-        .with_context(|| format!("cannot write {}", jp.display()))?;
     if !args.quiet {
         let n: usize = subjects.iter().map(|s| s.fixations.len()).sum();
         eprintln!(

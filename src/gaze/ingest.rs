@@ -11,12 +11,14 @@ use super::fixation_table::{write_fixations_csv, FixationRow};
 use super::fixations::{
     apply_protocol_filter, fixations, Detector, DetectorParams, EyePolicy, Fate, Fixation,
 };
-use super::model::{EyeSample, Recording, SmiFormat};
+use super::model::{EyeSample, Header, Recording, RowAccount, SmiFormat};
 use super::quality::{quality, QualityRow};
 use super::read_smi;
 use super::stimulus_messages::{
     classify_messages, ClassifiedMessage, Segmentation, StimulusPattern,
 };
+use crate::provenance::{InputFile, Provenance};
+use crate::stimulus::Protocol;
 
 /// The protocol's fixation filter (paper §4: drop the first and last two, keep the 15 longest).
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -345,6 +347,101 @@ pub fn message_kind_counts(messages: &[ClassifiedMessage]) -> BTreeMap<&'static 
         *counts.entry(m.kind.name()).or_insert(0) += 1;
     }
     counts
+}
+
+#[derive(Serialize)]
+struct IngestFileEntry {
+    file: String,
+    format: SmiFormat,
+    subject: String,
+    detector: Detector,
+    header: Header,
+    rows: RowAccount,
+    notes: Vec<String>,
+    messages: BTreeMap<&'static str, usize>,
+    stimuli: Vec<String>,
+    fixations: usize,
+}
+
+#[derive(Serialize)]
+struct IngestSidecar<'a> {
+    provenance: Provenance,
+    protocol: &'a str,
+    drop_first: usize,
+    drop_last: usize,
+    keep_longest: usize,
+    eye_policy: EyePolicy,
+    detector_params: &'a DetectorParams,
+    stimulus_pattern: Option<&'a str>,
+    stimulus_end_pattern: Option<&'a str>,
+    max_stimulus_s: f64,
+    files: Vec<IngestFileEntry>,
+}
+
+/// The stimuli a file's fixations were made on, sorted.
+pub fn stimuli_of(f: &IngestedFile) -> Vec<String> {
+    let mut v: Vec<String> = f
+        .fixations
+        .iter()
+        .filter(|x| !x.stimulus.is_empty())
+        .map(|x| x.stimulus.clone())
+        .collect();
+    v.sort();
+    v.dedup();
+    v
+}
+
+/// Writes DIR/ingest.json: provenance (`inputs`), the protocol's filter, the detector and
+/// segmentation parameters, and per file its format, subject, header, row account, notes,
+/// message kinds and stimuli. Returns its path.
+pub fn write_ingest_json(
+    dir: &Path,
+    files: &[IngestedFile],
+    inputs: Vec<InputFile>,
+    protocol: &Protocol,
+    params: &IngestParams,
+) -> Result<PathBuf, String> {
+    let rules = &protocol.fixations;
+    let sidecar = IngestSidecar {
+        provenance: Provenance::new(inputs),
+        protocol: &protocol.name,
+        drop_first: rules.drop_first,
+        drop_last: rules.drop_last,
+        keep_longest: rules.keep_longest,
+        eye_policy: params.eye,
+        detector_params: &params.detector_params,
+        stimulus_pattern: params
+            .segmentation
+            .pattern
+            .as_ref()
+            .map(|p| p.start.as_str()),
+        stimulus_end_pattern: params
+            .segmentation
+            .pattern
+            .as_ref()
+            .and_then(|p| p.end.as_ref())
+            .map(|e| e.as_str()),
+        max_stimulus_s: protocol.duration_s(),
+        files: files
+            .iter()
+            .map(|f| IngestFileEntry {
+                file: f.path.display().to_string(),
+                format: f.recording.format,
+                subject: f.subject.clone(),
+                detector: f.detector,
+                header: f.recording.header.clone(),
+                rows: f.recording.rows.clone(),
+                notes: f.recording.notes.clone(),
+                messages: message_kind_counts(&f.messages),
+                stimuli: stimuli_of(f),
+                fixations: f.fixations.len(),
+            })
+            .collect(),
+    };
+    let j = dir.join("ingest.json");
+    let text = serde_json::to_string_pretty(&sidecar).map_err(|e| e.to_string())? + "\n";
+    std::fs::write(&j, text).map_err(|e| format!("cannot write {}: {e}", j.display()))?;
+    Ok(j)
 }
 
 /// Writes fixations.csv, messages.csv and quality.csv of `files` into `dir`; returns the

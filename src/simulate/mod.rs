@@ -175,6 +175,78 @@ fn minimum_jerk(s: f64) -> f64 {
     s * s * s * (10.0 - 15.0 * s + 6.0 * s * s)
 }
 
+#[derive(Serialize)]
+struct SimulationSidecar<'a> {
+    provenance: crate::provenance::Provenance,
+    stimulus_name: &'a str,
+    model: &'a str,
+    parameters: &'a ObserverParams,
+    subjects: Vec<SubjectFacts>,
+}
+
+#[derive(Serialize)]
+struct SubjectFacts {
+    id: String,
+    head_distance_mm: f64,
+    samples: usize,
+    lost_samples: usize,
+    fixations: usize,
+    fixations_with_target: usize,
+    files: [String; 2],
+}
+
+/// Writes each subject's recording as SMI format A (`sNN_samples.txt`) and C1
+/// (`sNN_events.txt`), the true fixations (`targets.csv`) and `simulate.json` (provenance from
+/// `inputs`, the target model and parameters, per-subject facts) into `dir`.
+pub fn write_simulation(
+    dir: &std::path::Path,
+    subjects: &[VirtualSubject],
+    inputs: Vec<crate::provenance::InputFile>,
+    stimulus_name: &str,
+    model_name: &str,
+    params: &ObserverParams,
+) -> Result<(), String> {
+    use crate::gaze::writers::{write_events_c1, write_samples_a};
+    crate::file_bytes::create_output_dir(dir).map_err(|e| format!("{e:#}"))?;
+    let write = |name: &str, text: String| {
+        let p = dir.join(name);
+        std::fs::write(&p, text).map_err(|e| format!("cannot write {}: {e}", p.display()))
+    };
+    let mut facts = Vec::new();
+    for s in subjects {
+        let a = format!("{}_samples.txt", s.id);
+        let c = format!("{}_events.txt", s.id);
+        write(&a, write_samples_a(&s.header, &s.samples, &s.messages))?;
+        write(&c, write_events_c1(&s.header, &s.events, &s.messages))?;
+        facts.push(SubjectFacts {
+            id: s.id.clone(),
+            head_distance_mm: s.head_distance_mm,
+            samples: s.samples.len(),
+            lost_samples: s
+                .samples
+                .iter()
+                .filter(|x| !x.left.is_some_and(|e| e.valid))
+                .count(),
+            fixations: s.fixations.len(),
+            fixations_with_target: s.fixations.iter().filter(|f| f.vertex.is_some()).count(),
+            files: [a, c],
+        });
+    }
+    let tp = dir.join("targets.csv");
+    let file =
+        std::fs::File::create(&tp).map_err(|e| format!("cannot create {}: {e}", tp.display()))?;
+    write_targets_csv(std::io::BufWriter::new(file), subjects)?;
+    let sidecar = SimulationSidecar {
+        provenance: crate::provenance::Provenance::new(inputs),
+        stimulus_name,
+        model: model_name,
+        parameters: params,
+        subjects: facts,
+    };
+    let json = serde_json::to_string_pretty(&sidecar).map_err(|e| e.to_string())? + "\n";
+    write("simulate.json", json)
+}
+
 /// Simulates `params.subjects` observers. Deterministic for a seed; subjects are independent
 /// streams, so adding subjects does not change the first ones.
 pub fn simulate_observers(
