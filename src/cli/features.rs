@@ -1,4 +1,3 @@
-use std::io::Write;
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
@@ -6,11 +5,14 @@ use clap::Args;
 use plotters::style::RGBColor;
 use serde::Serialize;
 
+use meshgaze::experiments::features::evaluation_files::{
+    alpha_sweep, separation_in_mesh_units, write_evaluation_csv, write_feature_points_csv,
+    write_truth_points_csv, SeparationUnit,
+};
 use meshgaze::experiments::features::marks::parse_marks;
 use meshgaze::experiments::features::{
-    evaluate, feature_points, voted_ground_truth, Evaluation, GeodesicGraph, TruthPoint,
+    feature_points, voted_ground_truth, Evaluation, GeodesicGraph, TruthPoint,
 };
-use meshgaze::mesh::geometry::{BoundingBox, Normalization};
 use meshgaze::mesh::load_mesh;
 use meshgaze::progress::Progress;
 use meshgaze::provenance::{InputFile, Provenance};
@@ -51,8 +53,8 @@ pub struct FeaturesArgs {
     pub output: PathBuf,
     #[arg(long, default_value_t = 0.15)]
     pub separation: f64,
-    #[arg(long, value_enum, default_value_t = Unit::Normalized)]
-    pub unit: Unit,
+    #[arg(long, value_enum, default_value_t = SeparationUnit::Normalized)]
+    pub unit: SeparationUnit,
     /// Steiner points per edge for geodesics (0 = plain edge Dijkstra).
     #[arg(long, default_value_t = 3)]
     pub steiner: usize,
@@ -73,21 +75,12 @@ pub struct FeaturesArgs {
     pub quiet: bool,
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
-#[serde(rename_all = "lowercase")]
-pub enum Unit {
-    /// Half the principal-axes bounding-box diagonal = 1.
-    Normalized,
-    /// Fraction of the geodesic diameter.
-    Diameter,
-}
-
 #[derive(Serialize)]
 struct Sidecar<'a> {
     provenance: Provenance,
     saliency: String,
     separation: f64,
-    unit: Unit,
+    unit: SeparationUnit,
     separation_in_mesh_units: f64,
     steiner_points_per_edge: usize,
     geodesic_diameter_double_sweep: f64,
@@ -138,34 +131,14 @@ pub fn run(args: FeaturesArgs) -> Result<()> {
     bars.start("geodesic diameter (double sweep)", 0);
     let diameter = graph.diameter_double_sweep();
     bars.finish();
-    let separation = match args.unit {
-        Unit::Normalized => {
-            args.separation * Normalization::of_mesh(&mesh, BoundingBox::Oriented).radius
-        }
-        Unit::Diameter => args.separation * diameter,
-    };
+    let separation = separation_in_mesh_units(&mesh, args.separation, args.unit, diameter);
     let points = feature_points(&mesh, &values, &graph, separation);
     let prefix = meshgaze::saliency::map_file::output_prefix(&args.output);
     if let Some(dir) = prefix.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     }
     let path = |ext: &str| PathBuf::from(format!("{}{ext}", prefix.display()));
-    let mut w = std::io::BufWriter::new(std::fs::File::create(path(".csv"))?);
-    writeln!(w, "rank,vertex,saliency,x,y,z")?;
-    for (k, p) in points.iter().enumerate() {
-        let q = mesh.positions[p.vertex];
-        writeln!(
-            w,
-            "{},{},{},{},{},{}",
-            k + 1,
-            p.vertex,
-            p.saliency,
-            q.x,
-            q.y,
-            q.z
-        )?;
-    }
-    w.flush()?;
+    write_feature_points_csv(create(&path(".csv"))?, &mesh, &points)?;
     let mut truth = None;
     let mut evals = None;
     if !args.marks.is_empty() {
@@ -176,44 +149,17 @@ pub fn run(args: FeaturesArgs) -> Result<()> {
         }
         let t = voted_ground_truth(&graph, &marks, args.sigma, args.min_subjects, diameter);
         let detected: Vec<usize> = points.iter().map(|p| p.vertex).collect();
-        let steps = (args.alpha_max / args.alpha_step + 1e-9).floor() as usize;
-        if !(args.alpha_step > 0.0 && steps <= 1000) {
-            bail!("--alpha-step must be positive with at most 1000 steps");
-        }
-        let e: Vec<Evaluation> = (0..=steps)
-            .map(|i| {
-                let alpha = (i as f64 * args.alpha_step * 1e9).round() / 1e9;
-                evaluate(&graph, &t, &detected, alpha, diameter)
-            })
-            .collect();
-        let mut w = std::io::BufWriter::new(std::fs::File::create(path(".truth.csv"))?);
-        writeln!(w, "vertex,subjects")?;
-        for p in &t {
-            writeln!(w, "{},{}", p.vertex, p.subjects)?;
-        }
-        w.flush()?;
-        let mut w = std::io::BufWriter::new(std::fs::File::create(path(".eval.csv"))?);
-        writeln!(
-            w,
-            "alpha,truth_points,detected_points,matched,fne,fpe,wme,recall,precision,f_measure"
-        )?;
-        for x in &e {
-            writeln!(
-                w,
-                "{},{},{},{},{},{},{},{},{},{}",
-                x.alpha,
-                x.truth_points,
-                x.detected_points,
-                x.matched,
-                x.false_negative_error,
-                x.false_positive_error,
-                x.weighted_miss_error,
-                x.recall,
-                x.precision,
-                x.f_measure
-            )?;
-        }
-        w.flush()?;
+        let e = alpha_sweep(
+            &graph,
+            &t,
+            &detected,
+            args.alpha_max,
+            args.alpha_step,
+            diameter,
+        )
+        .map_err(anyhow::Error::msg)?;
+        write_truth_points_csv(create(&path(".truth.csv"))?, &t)?;
+        write_evaluation_csv(create(&path(".eval.csv"))?, &e)?;
         let series = |name: &str, color: RGBColor, f: fn(&Evaluation) -> f64| Series {
             name: name.into(),
             points: e
@@ -268,8 +214,8 @@ pub fn run(args: FeaturesArgs) -> Result<()> {
             points.len(),
             args.separation,
             match args.unit {
-                Unit::Normalized => "normalized units",
-                Unit::Diameter => "of the geodesic diameter",
+                SeparationUnit::Normalized => "normalized units",
+                SeparationUnit::Diameter => "of the geodesic diameter",
             }
         );
         if let (Some(t), Some(e)) = (&truth, &evals) {
@@ -295,4 +241,10 @@ pub fn run(args: FeaturesArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+fn create(path: &Path) -> Result<std::io::BufWriter<std::fs::File>> {
+    Ok(std::io::BufWriter::new(
+        std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?,
+    ))
 }

@@ -1,5 +1,6 @@
 //! Feature points from saliency (paper §5.5, Fig. 9) and their evaluation against human
 //! marks (Dutagaci et al. 2012), on geodesic distances.
+pub mod evaluation_files;
 pub mod feature_points;
 pub mod geodesic;
 pub mod interest_point_benchmark;
