@@ -95,3 +95,55 @@ fn a_map_transfers_back_exactly_at_shared_vertices_and_smoothly_between() {
         .fold(0.0, f64::max);
     assert!(worst < 0.02 * scale, "worst {worst} of range {scale}");
 }
+
+/// Damage that leaves nothing to compare is refused with the flag to change, never a panic:
+/// holes that remove every triangle, a "simplification" to the mesh's own vertex count, and a
+/// saliency method asked to run on a mesh without triangles.
+#[test]
+fn impossible_corruptions_and_empty_meshes_are_refused_by_name() {
+    use meshgaze::experiments::robustness::{robustness, RobustnessParams};
+    use meshgaze::saliency::{compute_saliency, Method, SmsParams};
+    let sphere = icosphere(1.0, 3);
+    let n = sphere.positions.len();
+    let run = |p: RobustnessParams| {
+        robustness(
+            &sphere,
+            &[Method::Ms, Method::Mc],
+            &SmsParams::default(),
+            &p,
+            &meshgaze::progress::Silent,
+        )
+        .err()
+        .expect("refused")
+    };
+    let e = run(RobustnessParams {
+        hole_radius: 5.0,
+        simplify_to: 100,
+        ..RobustnessParams::default()
+    });
+    assert!(
+        e.contains("--hole-radius") && e.contains("every triangle"),
+        "{e}"
+    );
+    let e = run(RobustnessParams {
+        simplify_to: n,
+        ..RobustnessParams::default()
+    });
+    assert!(
+        e.contains("--simplify-to") && e.contains(&n.to_string()),
+        "{e}"
+    );
+    let mut empty = sphere.clone();
+    empty.triangles.clear();
+    for m in [Method::Sms, Method::Ms, Method::Mc, Method::Si] {
+        let e = compute_saliency(
+            m,
+            &empty,
+            &SmsParams::default(),
+            &meshgaze::progress::Silent,
+        )
+        .err()
+        .expect("refused");
+        assert!(e.contains("no triangles"), "{e}");
+    }
+}

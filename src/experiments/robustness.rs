@@ -65,13 +65,30 @@ pub struct RobustnessResult {
     pub rows: Vec<AgreementRow>,
 }
 
-/// The three damaged copies of the paper's Fig. 8.
-pub fn corrupt(mesh: &Mesh, p: &RobustnessParams) -> Vec<Corrupted> {
+/// The three damaged copies of the paper's Fig. 8; an error when a copy would not be damaged
+/// (simplifying to as many vertices as the mesh has) or would have no surface left.
+pub fn corrupt(mesh: &Mesh, p: &RobustnessParams) -> Result<Vec<Corrupted>, String> {
+    if mesh.triangles.is_empty() {
+        return Err("the mesh has no triangles".into());
+    }
+    let n = mesh.positions.len();
+    if p.simplify_to >= n {
+        return Err(format!(
+            "--simplify-to {} is not below the mesh's {n} vertices: the \"simplified\" copy would be the mesh itself; give fewer vertices",
+            p.simplify_to
+        ));
+    }
     let radius = Normalization::of_mesh(mesh, BoundingBox::Oriented).radius;
     let noisy = add_normal_noise(mesh, p.noise_fraction, p.seed);
     let (simplified, _) = simplify_to_vertex_count(mesh, p.simplify_to);
     let (holed, _) = cut_holes(mesh, p.holes, p.hole_radius * radius, p.seed);
-    vec![
+    if holed.triangles.is_empty() {
+        return Err(format!(
+            "{} holes of radius {} (normalized units) remove every triangle of the mesh; give a smaller --hole-radius or fewer --holes",
+            p.holes, p.hole_radius
+        ));
+    }
+    Ok(vec![
         Corrupted {
             name: "noise",
             description: format!(
@@ -100,7 +117,7 @@ pub fn corrupt(mesh: &Mesh, p: &RobustnessParams) -> Vec<Corrupted> {
             ),
             mesh: holed,
         },
-    ]
+    ])
 }
 
 /// Runs every method on the clean mesh and on each damaged copy.
@@ -111,7 +128,7 @@ pub fn robustness(
     p: &RobustnessParams,
     progress: &dyn Progress,
 ) -> Result<RobustnessResult, String> {
-    let corrupted = corrupt(mesh, p);
+    let corrupted = corrupt(mesh, p)?;
     let n = mesh.positions.len();
     let k = ((p.top_fraction * n as f64).round() as usize).clamp(1, n);
     let mut maps = Vec::new();

@@ -48,6 +48,12 @@ pub fn compute_saliency(
     sms: &SmsParams,
     progress: &dyn Progress,
 ) -> Result<MethodOutput, String> {
+    if mesh.triangles.is_empty() {
+        return Err(format!(
+            "{}: the mesh has no triangles, so there is no surface to compute saliency on",
+            method.name()
+        ));
+    }
     let t = Instant::now();
     let (values, report) = match method {
         Method::Sms => {
