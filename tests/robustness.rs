@@ -147,3 +147,51 @@ fn impossible_corruptions_and_empty_meshes_are_refused_by_name() {
         assert!(e.contains("no triangles"), "{e}");
     }
 }
+
+/// `bench --case NAME --method NAME` times one cell in its own process and reports its peak
+/// memory; an unknown case is named with the list of cases.
+#[test]
+fn bench_times_one_cell_alone() {
+    let Some(data) = common::shared_data("bench_times_one_cell_alone") else {
+        return;
+    };
+    let bench = |args: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+            .arg("bench")
+            .args(args)
+            .arg("--data")
+            .arg(&data)
+            .output()
+            .unwrap()
+    };
+    let out = bench(&["--case", "bunny-35k", "--method", "mc"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let row = text
+        .lines()
+        .find(|l| l.starts_with("| bunny-35k | 35947 |"))
+        .expect("the cell's row");
+    let cells: Vec<&str> = row.split('|').map(str::trim).collect();
+    // | mesh | vertices | SMS | MC | MS | SI |: only MC was measured.
+    assert_eq!(cells[3], "–", "{row}");
+    assert!(cells[4].contains("(0.5, "), "{row}");
+    assert_eq!((cells[5], cells[6]), ("–", "–"), "{row}");
+    assert!(
+        text.contains("Peak memory of the cell bunny-35k / mc:"),
+        "{text}"
+    );
+    assert!(
+        !text.contains("SMI format A parse"),
+        "one cell, nothing else"
+    );
+    let out = bench(&["--case", "nope"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && err.contains("bunny-35k, horse-48k"),
+        "{err}"
+    );
+}

@@ -14,7 +14,8 @@ use meshgaze::saliency::{compute_saliency, sparse_metric_saliency, Method, SmsEx
 /// Cases: the 35,947-vertex Stanford bunny, the 48k Cyberware horse, the 134k igea, and the
 /// 50k armadillo subdivided twice (about 800k vertices); each is compared with the paper's
 /// row nearest in size. SMS with its steps A/B/C, then MC, MS and SI. Each case runs in its own process so its peak memory is its own.
-/// Prints a Markdown table; --csv also writes it as CSV.
+/// Prints a Markdown table; --csv also writes it as CSV. `--case NAME --method NAME` times one
+/// cell alone, in its own process, with its peak memory.
 #[derive(Debug, Args)]
 pub struct BenchArgs {
     /// Folder with the shared meshes (meshes/classic/...) [default: $MESHGAZE_DATA, else
@@ -28,9 +29,16 @@ pub struct BenchArgs {
     /// Also write the table as CSV here.
     #[arg(long)]
     pub csv: Option<PathBuf>,
-    /// Run one case in this process and print its JSON (used internally).
-    #[arg(long, hide = true)]
+    /// Only this case (bunny-35k, horse-48k, igea-134k, armadillo-subdivided).
+    #[arg(long)]
     pub case: Option<String>,
+    /// Only this method (sms, ms, mc, si): with --case, one cell of the table, timed in its
+    /// own process so the peak memory is that method's alone.
+    #[arg(long, value_enum)]
+    pub method: Option<Method>,
+    /// Run the case in this process and print its JSON (how the bench calls itself).
+    #[arg(long, hide = true)]
+    pub child: bool,
     /// Skip the stimulus benchmark (a 48 s 1680x1050 video of the 50k armadillo, ~30 s).
     #[arg(long)]
     pub skip_stimulus: bool,
@@ -40,13 +48,19 @@ pub struct BenchArgs {
 struct CaseResult {
     name: String,
     vertices: usize,
+    #[serde(deserialize_with = "nan_if_null")]
     a_s: f64,
+    #[serde(deserialize_with = "nan_if_null")]
     field_s: f64,
+    #[serde(deserialize_with = "nan_if_null")]
     b_s: f64,
+    #[serde(deserialize_with = "nan_if_null")]
     c_s: f64,
+    #[serde(deserialize_with = "nan_if_null")]
     total_s: f64,
     load_s: f64,
     peak_rss_mb: f64,
+    #[serde(deserialize_with = "nan_if_null")]
     paper_total_s: f64,
     /// The paper's Table 3 row this case is compared with.
     paper_row: String,
@@ -78,6 +92,11 @@ fn load_case(name: &str, data: &Path) -> Result<Mesh> {
 }
 
 /// "28x", or one decimal below 10x so 1.4x is not printed as 1x.
+/// JSON writes NaN (a column the case did not measure) as null; read it back as NaN.
+fn nan_if_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
 fn ratio(r: f64) -> String {
     if r < 10.0 {
         format!("{r:.1}x")
@@ -98,13 +117,18 @@ fn peak_rss_mb() -> f64 {
         .map_or(f64::NAN, |kb| kb / 1024.0)
 }
 
-fn run_case(name: &str, data: &Path, repeat: usize) -> Result<CaseResult> {
+fn run_case(name: &str, data: &Path, repeat: usize, only: Option<Method>) -> Result<CaseResult> {
     let t = std::time::Instant::now();
     let mesh = load_case(name, data)?;
     let load_s = t.elapsed().as_secs_f64();
     let params = SmsParams::default();
     let mut best: Option<CaseResult> = None;
-    for _ in 0..repeat.max(1) {
+    let sms_runs = if only.is_none_or(|m| m == Method::Sms) {
+        repeat.max(1)
+    } else {
+        0
+    };
+    for _ in 0..sms_runs {
         let r = sparse_metric_saliency(&mesh, &params, SmsExtras::default(), &Silent)
             .map_err(|e| anyhow::anyhow!(e))?;
         let tm = &r.report.timings;
@@ -130,10 +154,32 @@ fn run_case(name: &str, data: &Path, repeat: usize) -> Result<CaseResult> {
             best = Some(cr);
         }
     }
-    let mut best = best.expect("at least one run");
-    best.peak_rss_mb = peak_rss_mb();
-    if let Some(&(_, _, _, mc, ms, si)) = CASES.iter().find(|c| c.0 == name) {
-        for (method, paper) in [(Method::Mc, mc), (Method::Ms, ms), (Method::Si, si)] {
+    let case = CASES.iter().find(|c| c.0 == name);
+    let sms_ran = best.is_some();
+    if let Some(b) = best.as_mut() {
+        // SMS's own peak, before the other methods run in this process.
+        b.peak_rss_mb = peak_rss_mb();
+    }
+    // Without SMS (--method ms, say) its columns are left empty.
+    let mut best = best.unwrap_or_else(|| CaseResult {
+        name: name.to_string(),
+        vertices: mesh.positions.len(),
+        a_s: f64::NAN,
+        field_s: f64::NAN,
+        b_s: f64::NAN,
+        c_s: f64::NAN,
+        total_s: f64::NAN,
+        load_s,
+        peak_rss_mb: 0.0,
+        paper_total_s: case.map_or(f64::NAN, |c| c.2),
+        paper_row: case.map_or(String::new(), |c| c.1.to_string()),
+        baselines: Vec::new(),
+    });
+    if let Some(&(_, _, _, mc, ms, si)) = case {
+        for (method, paper) in [(Method::Mc, mc), (Method::Ms, ms), (Method::Si, si)]
+            .into_iter()
+            .filter(|(m, _)| only.is_none_or(|o| o == *m))
+        {
             let mut fastest = f64::INFINITY;
             for _ in 0..repeat.max(1) {
                 let out = compute_saliency(method, &mesh, &params, &Silent)
@@ -143,6 +189,10 @@ fn run_case(name: &str, data: &Path, repeat: usize) -> Result<CaseResult> {
             best.baselines
                 .push((method.name().to_string(), fastest, paper));
         }
+    }
+    if !sms_ran {
+        // With --method, the one method this process ran.
+        best.peak_rss_mb = peak_rss_mb();
     }
     Ok(best)
 }
@@ -182,28 +232,43 @@ fn data_folder(given: Option<&std::path::Path>) -> Result<PathBuf> {
 
 pub fn run(args: BenchArgs) -> Result<()> {
     let data = data_folder(args.data.as_deref())?;
-    if let Some(case) = &args.case {
-        let r = run_case(case, &data, args.repeat)?;
+    if args.child {
+        let case = args.case.as_deref().context("--child needs --case")?;
+        let r = run_case(case, &data, args.repeat, args.method)?;
         println!("{}", serde_json::to_string(&r)?);
         return Ok(());
+    }
+    if let Some(case) = &args.case {
+        if !CASES.iter().any(|c| c.0 == case) {
+            bail!(
+                "no bench case `{case}`: the cases are {}",
+                CASES.iter().map(|c| c.0).collect::<Vec<_>>().join(", ")
+            );
+        }
     }
     let exe = std::env::current_exe().context("cannot find the meshgaze executable")?;
     let threads = rayon::current_num_threads();
     let mut rows = Vec::new();
-    for (name, ..) in CASES {
+    for (name, ..) in CASES
+        .iter()
+        .filter(|c| args.case.as_deref().is_none_or(|x| x == c.0))
+    {
         eprintln!("bench: {name} ...");
-        let out = Command::new(&exe)
-            .args([
-                "bench",
-                "--case",
-                name,
-                "--repeat",
-                &args.repeat.to_string(),
-                "--data",
-            ])
-            .arg(&data)
-            .output()
-            .context("cannot run the bench case")?;
+        let mut cmd = Command::new(&exe);
+        cmd.args([
+            "bench",
+            "--child",
+            "--case",
+            name,
+            "--repeat",
+            &args.repeat.to_string(),
+            "--data",
+        ])
+        .arg(&data);
+        if let Some(m) = args.method {
+            cmd.args(["--method", m.name()]);
+        }
+        let out = cmd.output().context("cannot run the bench case")?;
         if !out.status.success() {
             bail!(
                 "bench case {name} failed: {}",
@@ -216,7 +281,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     println!("SMS at the paper's settings (n = 5000, 5 scales, 256³ grid, μ = 0.2, σ = 0.02), {threads} threads:\n");
     println!("| mesh | vertices | A metric (s) | of which field (s) | B saliency (s) | C interpolation (s) | total (s) | paper row | paper total (s) | speed-up | peak RSS (MB) |");
     println!("|---|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|");
-    for r in &rows {
+    for r in rows.iter().filter(|r| r.total_s.is_finite()) {
         println!(
             "| {} | {} | {:.2} | {:.2} | {:.2} | {:.2} | {:.2} | {} | {:.1} | {:.0}x | {:.0} |",
             r.name,
@@ -236,22 +301,44 @@ pub fn run(args: BenchArgs) -> Result<()> {
     println!("| mesh | vertices | SMS | MC | MS | SI |");
     println!("|---|---:|---:|---:|---:|---:|");
     for r in &rows {
-        let mut line = format!(
-            "| {} | {} | {:.2} ({}, {}) |",
-            r.name,
-            r.vertices,
-            r.total_s,
-            r.paper_total_s,
-            ratio(r.paper_total_s / r.total_s)
-        );
-        for (_, secs, paper) in &r.baselines {
-            line += &format!(" {secs:.3} ({paper}, {}) |", ratio(paper / secs));
+        let mut line = if r.total_s.is_finite() {
+            format!(
+                "| {} | {} | {:.2} ({}, {}) |",
+                r.name,
+                r.vertices,
+                r.total_s,
+                r.paper_total_s,
+                ratio(r.paper_total_s / r.total_s)
+            )
+        } else {
+            format!("| {} | {} | – |", r.name, r.vertices)
+        };
+        for m in ["mc", "ms", "si"] {
+            match r.baselines.iter().find(|b| b.0 == m) {
+                Some((_, secs, paper)) => {
+                    line += &format!(" {secs:.3} ({paper}, {}) |", ratio(paper / secs))
+                }
+                None => line += " – |",
+            }
         }
         println!("{line}");
     }
-    bench_smi_parse(&data)?;
-    if !args.skip_stimulus {
-        bench_stimulus(&data)?;
+    if let Some(m) = args.method {
+        for r in &rows {
+            println!(
+                "\nPeak memory of the cell {} / {}: {:.0} MB (its own process)",
+                r.name,
+                m.name(),
+                r.peak_rss_mb
+            );
+        }
+    }
+    // One cell asked for: nothing else.
+    if args.case.is_none() && args.method.is_none() {
+        bench_smi_parse(&data)?;
+        if !args.skip_stimulus {
+            bench_stimulus(&data)?;
+        }
     }
     println!(
         "\nLoading (not counted above): {}",
