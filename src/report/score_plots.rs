@@ -24,68 +24,25 @@ pub fn write_score_plots(
             .map(|r| (r.blur, r.value))
             .collect()
     };
-    let mut series: Vec<Series> = maps
+    let methods = maps
         .iter()
-        .enumerate()
-        .map(|(k, (name, _))| Series {
-            name: name.clone(),
-            points: curve(name, "auc_judd"),
-            color: PALETTE[k % PALETTE.len()],
-            dashed: false,
-            band: Vec::new(),
-        })
+        .map(|(name, _)| (name.clone(), curve(name, "auc_judd")))
         .collect();
-    let (low, high) = (
-        curve(CHANCE_LOW, "auc_judd"),
-        curve(CHANCE_HIGH, "auc_judd"),
+    let chance = curve(CHANCE, "auc_judd")
+        .iter()
+        .zip(curve(CHANCE_LOW, "auc_judd"))
+        .zip(curve(CHANCE_HIGH, "auc_judd"))
+        .map(|((m, l), h)| (m.0, m.1, l.1, h.1))
+        .collect();
+    let series = auc_series(
+        methods,
+        "chance: mean and 95% of random maps",
+        chance,
+        curve(HUMAN, "auc_judd"),
     );
-    series.push(Series {
-        name: "chance: mean and 95% of random maps".into(),
-        points: curve(CHANCE, "auc_judd"),
-        color: RGBColor(128, 128, 128),
-        dashed: true,
-        band: low
-            .iter()
-            .zip(&high)
-            .map(|(l, h)| (l.0, l.1, h.1))
-            .collect(),
-    });
-    let human = curve(HUMAN, "auc_judd");
-    if !human.is_empty() {
-        series.push(Series {
-            name: "human (split-half)".into(),
-            points: human,
-            color: RGBColor(0, 0, 0),
-            dashed: false,
-            band: Vec::new(),
-        });
-    }
-    let lowest = series
-        .iter()
-        .flat_map(|s| {
-            s.points
-                .iter()
-                .map(|p| p.1)
-                .chain(s.band.iter().map(|b| b.1))
-        })
-        .fold(0.5f64, f64::min);
-    let x_max = series
-        .iter()
-        .flat_map(|s| s.points.iter().map(|p| p.0))
-        .fold(0.01f64, f64::max);
     let auc_path = PathBuf::from(format!("{}.{mesh}.auc.png", prefix.display()));
-    line_chart_png(
-        &auc_path,
-        &Chart {
-            title: &format!("{mesh}: AUC-Judd vs blur"),
-            x_label: "blur σ_b (normalized units)",
-            y_label: "AUC-Judd",
-            x_range: (0.0, x_max),
-            y_range: ((lowest - 0.05).max(0.0), 1.0),
-        },
-        &series,
-    )
-    .map_err(anyhow::Error::msg)?;
+    auc_chart_png(&auc_path, &format!("{mesh}: AUC-Judd vs blur"), &series)
+        .map_err(anyhow::Error::msg)?;
     let mut lorenz = vec![Series {
         name: "uniform (Gini 0)".into(),
         points: vec![(0.0, 0.0), (1.0, 1.0)],
@@ -126,4 +83,72 @@ pub fn write_score_plots(
         auc_path.display().to_string(),
         lorenz_path.display().to_string(),
     ])
+}
+
+/// The series of an AUC-over-blur chart: each method in its palette colour, chance
+/// (σ_b, mean, low, high) dashed grey over its shaded band, and the human ceiling in black
+/// when there is one.
+pub fn auc_series(
+    methods: Vec<(String, Vec<(f64, f64)>)>,
+    chance_name: &str,
+    chance: Vec<(f64, f64, f64, f64)>,
+    human: Vec<(f64, f64)>,
+) -> Vec<Series> {
+    let mut series: Vec<Series> = methods
+        .into_iter()
+        .enumerate()
+        .map(|(k, (name, points))| Series {
+            name,
+            points,
+            color: PALETTE[k % PALETTE.len()],
+            dashed: false,
+            band: Vec::new(),
+        })
+        .collect();
+    series.push(Series {
+        name: chance_name.into(),
+        points: chance.iter().map(|c| (c.0, c.1)).collect(),
+        color: RGBColor(128, 128, 128),
+        dashed: true,
+        band: chance.iter().map(|c| (c.0, c.2, c.3)).collect(),
+    });
+    if !human.is_empty() {
+        series.push(Series {
+            name: "human (split-half)".into(),
+            points: human,
+            color: RGBColor(0, 0, 0),
+            dashed: false,
+            band: Vec::new(),
+        });
+    }
+    series
+}
+
+/// Writes an AUC-over-blur chart: y from just below the lowest point or band edge to 1.
+pub fn auc_chart_png(path: &Path, title: &str, series: &[Series]) -> Result<()> {
+    let lowest = series
+        .iter()
+        .flat_map(|s| {
+            s.points
+                .iter()
+                .map(|p| p.1)
+                .chain(s.band.iter().map(|b| b.1))
+        })
+        .fold(0.5f64, f64::min);
+    let x_max = series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|p| p.0))
+        .fold(0.01f64, f64::max);
+    line_chart_png(
+        path,
+        &Chart {
+            title,
+            x_label: "blur σ_b (normalized units)",
+            y_label: "AUC-Judd",
+            x_range: (0.0, x_max),
+            y_range: ((lowest - 0.05).max(0.0), 1.0),
+        },
+        series,
+    )
+    .map_err(anyhow::Error::msg)
 }

@@ -6,11 +6,10 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
 use anyhow::{Context, Result};
-use plotters::style::RGBColor;
 
 use super::html::{esc, fmt3};
 use super::mesh_page::{FATES, STYLE};
-use super::plot::{line_chart_png, Chart, Series, PALETTE};
+use super::score_plots::{auc_chart_png, auc_series};
 use crate::scoring::{chance_band_of_mean, peak_over_blur, CHANCE, CHANCE_HIGH, CHANCE_LOW, HUMAN};
 
 /// One row of scores.csv.
@@ -193,60 +192,21 @@ fn mean_section(
     } else {
         Vec::new()
     };
-    let mut series: Vec<Series> = methods
-        .iter()
-        .enumerate()
-        .map(|(k, m)| Series {
-            name: m.clone(),
-            points: mean_curve(rows, meshes, m),
-            color: PALETTE[k % PALETTE.len()],
-            dashed: false,
-            band: Vec::new(),
-        })
-        .collect();
-    series.push(Series {
-        name: "chance: mean and 95% of the mean of random maps".into(),
-        points: band.iter().map(|b| (b.0, b.1)).collect(),
-        color: RGBColor(128, 128, 128),
-        dashed: true,
-        band: band.iter().map(|b| (b.0, b.2, b.3)).collect(),
-    });
-    let human = mean_curve(rows, meshes, HUMAN);
-    if !human.is_empty() {
-        series.push(Series {
-            name: "human (split-half)".into(),
-            points: human,
-            color: RGBColor(0, 0, 0),
-            dashed: false,
-            band: Vec::new(),
-        });
-    }
+    let series = auc_series(
+        methods
+            .iter()
+            .map(|m| (m.clone(), mean_curve(rows, meshes, m)))
+            .collect(),
+        "chance: mean and 95% of the mean of random maps",
+        band.clone(),
+        mean_curve(rows, meshes, HUMAN),
+    );
     if series.iter().any(|s| !s.points.is_empty()) {
-        let lowest = series
-            .iter()
-            .flat_map(|s| {
-                s.points
-                    .iter()
-                    .map(|p| p.1)
-                    .chain(s.band.iter().map(|b| b.1))
-            })
-            .fold(0.5f64, f64::min);
-        let x_max = series
-            .iter()
-            .flat_map(|s| s.points.iter().map(|p| p.0))
-            .fold(0.01f64, f64::max);
-        line_chart_png(
+        auc_chart_png(
             &report_dir.join("mean_auc.png"),
-            &Chart {
-                title: &format!("mean AUC-Judd over {} meshes vs blur", meshes.len()),
-                x_label: "blur σ_b (normalized units)",
-                y_label: "AUC-Judd",
-                x_range: (0.0, x_max),
-                y_range: ((lowest - 0.05).max(0.0), 1.0),
-            },
+            &format!("mean AUC-Judd over {} meshes vs blur", meshes.len()),
             &series,
-        )
-        .map_err(anyhow::Error::msg)?;
+        )?;
         h += "<h2>Mean AUC-Judd over blur</h2><p>Each method's AUC-Judd averaged over the meshes at each blur σ<sub>b</sub>; black: the split-half human ceiling; grey: the mean of the random maps, with the band holding 95% of the means of independent random maps (draw j of every mesh averaged).</p><img alt=\"mean AUC over blur\" src=\"report/mean_auc.png\" style=\"max-width:900px\">";
         h += "<table><tr><th>method</th><th>mean AUC-Judd σ<sub>b</sub>=0</th><th>peak of the mean (σ<sub>b</sub>)</th><th>chance there: mean [95%]</th></tr>";
         for s in series.iter().filter(|s| !s.points.is_empty()) {
