@@ -178,7 +178,8 @@ impl Columns<'_> {
         Err((reason, f[c].0))
     }
 
-    /// The row's event (numbered later); None when a field is unusable (counted in `rows`).
+    /// The row's event (numbered later); None when a field is unusable, counted once in
+    /// `rows` at the first unusable field so that every line is accounted for exactly once.
     fn event(
         &self,
         f: &[(usize, &str)],
@@ -188,67 +189,56 @@ impl Columns<'_> {
         line: &str,
         rows: &mut RowAccount,
     ) -> Option<Event> {
+        match self.parse_event(f, kind, eye) {
+            Ok(event) => Some(event),
+            Err((reason, column)) => {
+                rows.reject(&reason, no, column, line);
+                None
+            }
+        }
+    }
+
+    /// The row's event, or why not and at which column.
+    fn parse_event(
+        &self,
+        f: &[(usize, &str)],
+        kind: EventKind,
+        eye: Eye,
+    ) -> Result<Event, (String, usize)> {
         let sep = self.sep;
-        let ms = |i: usize, name: &str, rows: &mut RowAccount| -> Result<Option<f64>, ()> {
-            number(f[i].1, sep)
-                .map_err(|_| rows.reject(&format!("`{name}` is not a number"), no, f[i].0, line))
+        let ms = |i: usize, name: &str| -> Result<Option<f64>, (String, usize)> {
+            number(f[i].1, sep).map_err(|_| (format!("`{name}` is not a number"), f[i].0))
         };
-        let Ok(Some(start_ms)) = ms(self.start, "Event Start Trial Time [ms]", rows) else {
-            if number(f[self.start].1, sep).is_ok() {
-                rows.reject(
-                    "missing `Event Start Trial Time [ms]`",
-                    no,
-                    f[self.start].0,
-                    line,
-                );
-            }
-            return None;
+        let required = |i: usize, name: &str| -> Result<f64, (String, usize)> {
+            ms(i, name)?.ok_or_else(|| (format!("missing `{name}`"), f[i].0))
         };
-        let Ok(Some(end_ms)) = ms(self.end, "Event End Trial Time [ms]", rows) else {
-            if number(f[self.end].1, sep).is_ok() {
-                rows.reject(
-                    "missing `Event End Trial Time [ms]`",
-                    no,
-                    f[self.end].0,
-                    line,
-                );
-            }
-            return None;
+        let start_ms = required(self.start, "Event Start Trial Time [ms]")?;
+        let end_ms = required(self.end, "Event End Trial Time [ms]")?;
+        let duration_ms = match self.duration {
+            Some(c) => ms(c, "Event Duration [ms]")?.unwrap_or(end_ms - start_ms),
+            None => end_ms - start_ms,
         };
-        let duration_ms = match self.duration.map(|c| ms(c, "Event Duration [ms]", rows)) {
-            Some(Err(())) => return None,
-            Some(Ok(Some(d))) => d,
-            _ => end_ms - start_ms,
-        };
-        let mut real = |name: &str| -> Result<Option<f64>, ()> {
+        let real = |name: &str| -> Result<Option<f64>, (String, usize)> {
             match field(self.names, f, name) {
-                Some((c, t)) => number(t, sep)
-                    .map_err(|_| rows.reject(&format!("`{name}` is not a number"), no, c, line)),
+                Some((c, t)) => {
+                    number(t, sep).map_err(|_| (format!("`{name}` is not a number"), c))
+                }
                 None => Ok(None),
             }
         };
-        let (Ok(raw_start), Ok(raw_end)) = (
-            real("Event Start Raw Time [ms]"),
-            real("Event End Raw Time [ms]"),
-        ) else {
-            return None;
-        };
-        let (Ok(fx), Ok(fy), Ok(sx), Ok(sy), Ok(ex), Ok(ey), Ok(dx), Ok(dy), Ok(pupil)) = (
-            real("Fixation Position X [px]"),
-            real("Fixation Position Y [px]"),
-            real("Saccade Start Position X [px]"),
-            real("Saccade Start Position Y [px]"),
-            real("Saccade End Position X [px]"),
-            real("Saccade End Position Y [px]"),
-            real("Fixation Dispersion X [px]"),
-            real("Fixation Dispersion Y [px]"),
-            real("Fixation Average Pupil Diameter [mm]"),
-        ) else {
-            return None;
-        };
+        let raw_start = real("Event Start Raw Time [ms]")?;
+        let raw_end = real("Event End Raw Time [ms]")?;
+        let fx = real("Fixation Position X [px]")?;
+        let fy = real("Fixation Position Y [px]")?;
+        let sx = real("Saccade Start Position X [px]")?;
+        let sy = real("Saccade Start Position Y [px]")?;
+        let ex = real("Saccade End Position X [px]")?;
+        let ey = real("Saccade End Position Y [px]")?;
+        let dx = real("Fixation Dispersion X [px]")?;
+        let dy = real("Fixation Dispersion Y [px]")?;
+        let pupil = real("Fixation Average Pupil Diameter [mm]")?;
         if end_ms < start_ms {
-            rows.reject("event ends before it starts", no, 1, line);
-            return None;
+            return Err(("event ends before it starts".to_string(), 1));
         }
         let trial = self
             .trial
@@ -282,7 +272,7 @@ impl Columns<'_> {
         } else {
             (fx, fy)
         };
-        Some(Event {
+        Ok(Event {
             kind,
             eye,
             trial,
