@@ -10,6 +10,7 @@
 pub mod experiments;
 pub mod file_bytes;
 pub mod gaze;
+pub mod gaze_model;
 pub mod mesh;
 pub mod progress;
 pub mod projection;

@@ -30,6 +30,7 @@ enum Command {
     Bench(cli::bench::BenchArgs),
     Protocol(cli::protocol::ProtocolArgs),
     Study(cli::study::StudyArgs),
+    Train(cli::train::TrainArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -48,6 +49,7 @@ fn main() -> std::process::ExitCode {
         Command::Bench(args) => cli::bench::run(args),
         Command::Protocol(args) => cli::protocol::run(args),
         Command::Study(args) => cli::study::run(args),
+        Command::Train(args) => cli::train::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -127,7 +127,7 @@ fn scoring_ranks_a_perfect_map_above_chance_and_an_inverted_one_below() {
         ("inverted".to_string(), inverted),
         ("noisy".to_string(), noisy),
     ];
-    let score = score_mesh(&mesh, &truth, &maps, &params, &Silent).unwrap();
+    let score = score_mesh(&mesh, &truth, &maps, &params, None, &Silent).unwrap();
     let get = |method: &str, metric: &str, blur: f64| {
         score
             .rows

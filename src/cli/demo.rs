@@ -184,7 +184,10 @@ pub fn run(args: DemoArgs) -> Result<()> {
     // 7. Scores and report.
     say("7/7 scoring against the ground truth and writing report.html");
     let t = Instant::now();
-    let (score, plots) = score_step(&mesh, &truth, &maps, &out.join("score"), &bars)?;
+    let seen = meshgaze::stimulus::hold_views::hold_view_exposure(&mesh, &protocol)
+        .map_err(anyhow::Error::msg)?
+        .seen();
+    let (score, plots) = score_step(&mesh, &seen, &truth, &maps, &out.join("score"), &bars)?;
     step(
         "score",
         t,
@@ -312,6 +315,7 @@ fn saliency_step(
             InputFile::hash(mesh_path)?,
             method,
             &SmsParams::default(),
+            &meshgaze::saliency::Viewing::builtin(),
             MapOutputs::default(),
             &sal_dir.join(format!("bunny_{}", method.name())),
             &meshgaze::progress::Silent,
@@ -343,14 +347,22 @@ fn print_scores(score: &MeshScore, ginis: &[(&str, f64)], truth: &TruthResult) {
 /// Step 7: the maps scored against the truth: score.csv, score.json and the charts.
 fn score_step(
     mesh: &Mesh,
+    seen: &[bool],
     truth: &TruthResult,
     maps: &[(String, Vec<f64>)],
     score_dir: &Path,
     bars: &Bars,
 ) -> Result<(MeshScore, Vec<String>)> {
     create_output_dir(score_dir)?;
-    let score = score_mesh(mesh, &truth.truth, maps, &ScoreParams::default(), bars)
-        .map_err(anyhow::Error::msg)?;
+    let score = score_mesh(
+        mesh,
+        &truth.truth,
+        maps,
+        &ScoreParams::default(),
+        Some(seen),
+        bars,
+    )
+    .map_err(anyhow::Error::msg)?;
     let mut csv = format!("{SCORE_CSV_HEADER}\n").into_bytes();
     write_score_rows(&mut csv, "bunny", &score.rows)?;
     std::fs::write(score_dir.join("score.csv"), csv)?;

@@ -11,4 +11,5 @@ pub mod score;
 pub mod simulate;
 pub mod stimulus;
 pub mod study;
+pub mod train;
 pub mod truth;

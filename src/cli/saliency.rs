@@ -3,6 +3,10 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
+use meshgaze::gaze_model::features::up_and_front;
+use meshgaze::gaze_model::surface_points::read_gaze_points;
+use meshgaze::gaze_model::view_visibility::view_exposure;
+use meshgaze::gaze_model::GazeModel;
 use meshgaze::mesh::geometry::BoundingBox;
 use meshgaze::mesh::{load_mesh, LoadReport, Mesh};
 use meshgaze::provenance::InputFile;
@@ -10,9 +14,11 @@ use meshgaze::saliency::map_file::{compute_and_write_map, output_prefix, MapOutp
 use meshgaze::saliency::sms::descriptors::{
     DescriptorNormalization, DescriptorParams, GridParams, ShellWeight,
 };
+use meshgaze::saliency::sms::gaussian_interpolation::min_max_normalize;
 use meshgaze::saliency::sms::gaussian_interpolation::InterpolationKind;
 use meshgaze::saliency::sms::truncated_power::PowerParams;
-use meshgaze::saliency::{FieldKind, Method, SmsParams};
+use meshgaze::saliency::{FieldKind, Method, SmsParams, Viewing};
+use meshgaze::stimulus::protocol::Protocol;
 
 use super::progress_bar::Bars;
 
@@ -25,12 +31,16 @@ use super::progress_bar::Bars;
 /// optionally gzipped.
 ///
 /// Methods: sms (sparse metric-based saliency, Hu et al., Neurocomputing 2020; the default),
-/// ms (Lee et al. 2005 mesh saliency), mc (magnitude of mean curvature). SMS defaults are the
-/// paper's; choices the paper leaves open have flags too (docs/sms.md). The --per-sample,
-/// --per-scale and --dense outputs exist for sms only.
+/// ms (Lee et al. 2005 mesh saliency), mc (magnitude of mean curvature), si (Song et al.
+/// 2014), and three that know how the mesh is shown: up (height along the protocol's up
+/// axis), centre (closeness to the screen centre over the hold views that show a vertex) and
+/// gaze (the learned gaze model: built-in, or --model from `meshgaze train`; docs/gaze_model.md).
+/// SMS defaults are the paper's; choices the paper leaves open have flags too (docs/sms.md).
+/// The --per-sample, --per-scale and --dense outputs exist for sms only.
 #[derive(Debug, Args)]
 pub struct SaliencyArgs {
-    /// The mesh (.obj, .ply, .off, optionally .gz).
+    /// The mesh (.obj, .ply, .off, optionally .gz), or a point cloud with normals
+    /// (.txt / .xyz / .pts: `x y z nx ny nz` per line) for --method gaze, up or centre.
     pub mesh: PathBuf,
     /// Output prefix: writes PREFIX.csv, PREFIX.ply and PREFIX.json.
     #[arg(short, long)]
@@ -48,9 +58,38 @@ pub struct SaliencyArgs {
     /// Also write the map without sparsity, μ = 1 (paper Fig. 2).
     #[arg(long)]
     pub dense: bool,
+    /// The protocol whose up axis and hold views the `up`, `centre` and `gaze` methods use
+    /// (default: the built-in hu2020).
+    #[arg(long)]
+    pub protocol: Option<PathBuf>,
+    /// A gaze model from `meshgaze train` for `--method gaze` (default: the built-in one,
+    /// trained on ../shared/data/fixations-vr).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
     /// No progress bars.
     #[arg(short, long)]
     pub quiet: bool,
+}
+
+impl SaliencyArgs {
+    fn viewing(&self) -> Result<Viewing> {
+        let (protocol, _, _) = Protocol::load_or_builtin(self.protocol.as_deref())?;
+        let model = match &self.model {
+            Some(path) => {
+                if self.method != Method::Gaze {
+                    bail!("--model is for --method gaze");
+                }
+                let text = std::fs::read_to_string(path)
+                    .with_context(|| format!("cannot read {}", path.display()))?;
+                Some(
+                    GazeModel::from_json(&text, &path.display().to_string())
+                        .map_err(anyhow::Error::msg)?,
+                )
+            }
+            None => None,
+        };
+        Ok(Viewing { protocol, model })
+    }
 }
 
 /// Parameters of the sparse metric-based method. Defaults follow the paper.
@@ -167,6 +206,7 @@ fn compute_and_report(
         input,
         args.method,
         &args.sms.params(),
+        &args.viewing()?,
         args.outputs(),
         &output_prefix(&args.output),
         &bars,
@@ -211,9 +251,97 @@ pub fn run(args: SaliencyArgs) -> Result<()> {
     if !args.mesh.exists() {
         bail!("{}: no such file", args.mesh.display());
     }
+    if is_point_file(&args.mesh) {
+        return point_cloud_saliency(&args);
+    }
     let (mesh, load) = load_mesh(&args.mesh)?;
     let input = InputFile::hash(&args.mesh)
         .with_context(|| format!("cannot read {}", args.mesh.display()))?;
     compute_and_report(&args.mesh, &mesh, &load, input, &args)?;
+    Ok(())
+}
+
+/// `.txt`, `.xyz` or `.pts` (optionally `.gz`): oriented points, `x y z nx ny nz ...` per line.
+fn is_point_file(path: &Path) -> bool {
+    let name = path
+        .file_name()
+        .unwrap_or_default()
+        .to_string_lossy()
+        .to_ascii_lowercase();
+    let name = name.strip_suffix(".gz").unwrap_or(&name);
+    [".txt", ".xyz", ".pts"].iter().any(|e| name.ends_with(e))
+}
+
+/// The methods that need no connectivity, on a point cloud with normals: one value per input
+/// point, in input order (OUT.csv `point,saliency`, OUT.json with provenance).
+fn point_cloud_saliency(args: &SaliencyArgs) -> Result<()> {
+    let points = read_gaze_points(&args.mesh)
+        .map_err(anyhow::Error::msg)?
+        .points;
+    let viewing = args.viewing()?;
+    let t = std::time::Instant::now();
+    let mut values = match args.method {
+        Method::Gaze => {
+            let builtin;
+            let model = match &viewing.model {
+                Some(m) => m,
+                None => {
+                    builtin = GazeModel::builtin();
+                    &builtin
+                }
+            };
+            model
+                .predict(&points, &viewing.protocol)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", args.mesh.display()))?
+        }
+        Method::Up => {
+            let (up, _) = up_and_front(&viewing.protocol);
+            points.positions.iter().map(|p| p.dot(up)).collect()
+        }
+        Method::Centre => {
+            view_exposure(&points, &viewing.protocol)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", args.mesh.display()))?
+                .centre_closeness
+        }
+        other => bail!(
+            "{}: a point cloud (no triangles) can be given to --method gaze, up or centre; `{}` needs a mesh's surface",
+            args.mesh.display(),
+            other.name()
+        ),
+    };
+    min_max_normalize(&mut values);
+    let seconds = t.elapsed().as_secs_f64();
+    let prefix = output_prefix(&args.output);
+    if let Some(dir) = prefix.parent().filter(|d| !d.as_os_str().is_empty()) {
+        meshgaze::file_bytes::create_output_dir(dir)?;
+    }
+    let csv = PathBuf::from(format!("{}.csv", prefix.display()));
+    let mut text = String::from("point,saliency\n");
+    for (i, v) in values.iter().enumerate() {
+        text += &format!("{i},{v}\n");
+    }
+    std::fs::write(&csv, text).with_context(|| format!("cannot write {}", csv.display()))?;
+    let json = PathBuf::from(format!("{}.json", prefix.display()));
+    let sidecar = serde_json::json!({
+        "provenance": meshgaze::provenance::Provenance::new(vec![InputFile::hash(&args.mesh)?]),
+        "method": args.method,
+        "input": "point cloud",
+        "points": points.len(),
+        "protocol": viewing.protocol.name,
+        "seconds": seconds,
+        "outputs": [csv.display().to_string()],
+    });
+    std::fs::write(&json, serde_json::to_string_pretty(&sidecar)? + "\n")
+        .with_context(|| format!("cannot write {}", json.display()))?;
+    if !args.quiet {
+        eprintln!(
+            "{}: {} points; {} in {seconds:.2} s\nwrote {}, {}",
+            args.mesh.display(),
+            points.len(),
+            args.method.name(),
+            csv.display(),
+            json.display()
+        );
+    }
     Ok(())
 }

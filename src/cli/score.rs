@@ -5,17 +5,20 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde::Serialize;
 
+use meshgaze::gaze_model::GazeModel;
 use meshgaze::mesh::load_mesh;
 use meshgaze::provenance::{InputFile, Provenance};
 use meshgaze::report::score_plots::write_score_plots;
 use meshgaze::saliency::map_file::output_prefix;
-use meshgaze::saliency::{compute_saliency, Method, SmsParams};
+use meshgaze::saliency::{compute_saliency_viewed, Method, SmsParams, Viewing};
 use meshgaze::scoring::dataset::{
     dataset_pairs, mean_summaries, mesh_stem, score_table_markdown, write_score_rows, MeshEntry,
     SCORE_CSV_HEADER,
 };
 use meshgaze::scoring::surface_blur::BlurKernel;
 use meshgaze::scoring::{blur_grid, score_mesh, MeshScore, MethodSummary, ScoreParams, Weighting};
+use meshgaze::stimulus::hold_views::hold_view_exposure;
+use meshgaze::stimulus::protocol::Protocol;
 use meshgaze::truth::{load_ground_truth, GroundTruth};
 
 use super::progress_bar::Bars;
@@ -82,6 +85,34 @@ pub struct ScoreArgs {
     /// No progress bars.
     #[arg(short, long)]
     pub quiet: bool,
+    /// The protocol whose hold views decide which vertices were ever shown (for
+    /// `auc_judd_visible`) and which the `up`, `centre` and `gaze` methods use (default: the
+    /// built-in hu2020).
+    #[arg(long)]
+    pub protocol: Option<PathBuf>,
+    /// A gaze model from `meshgaze train` for `--method gaze` (default: the built-in one).
+    /// A mesh named like one of the model's training objects is refused: that score would
+    /// be a training-set figure (use `meshgaze train --cv` for held-out figures).
+    #[arg(long)]
+    pub model: Option<PathBuf>,
+}
+
+/// Refuses to score the gaze model on an object it was trained on.
+fn refuse_training_object(viewing: &Viewing, mesh_name: &str) -> Result<()> {
+    let builtin;
+    let model = match &viewing.model {
+        Some(m) => m,
+        None => {
+            builtin = GazeModel::builtin();
+            &builtin
+        }
+    };
+    if model.training.objects.iter().any(|o| o.name == mesh_name) {
+        bail!(
+            "{mesh_name}: the gaze model was trained on an object named `{mesh_name}`, so its score here would be a training-set figure; `meshgaze train --cv` gives leave-one-object-out figures, or pass --model trained without it"
+        );
+    }
+    Ok(())
 }
 
 #[derive(Serialize)]
@@ -116,6 +147,19 @@ pub fn run(args: ScoreArgs) -> Result<()> {
         bail!("nothing to score: give --method (e.g. sms,ms,mc) and/or --saliency FILE");
     }
     let bars = Bars::new(args.quiet);
+    let (protocol, _, _) = Protocol::load_or_builtin(args.protocol.as_deref())?;
+    let model = match &args.model {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .with_context(|| format!("cannot read {}", path.display()))?;
+            Some(
+                GazeModel::from_json(&text, &path.display().to_string())
+                    .map_err(anyhow::Error::msg)?,
+            )
+        }
+        None => None,
+    };
+    let viewing = Viewing { protocol, model };
     let mut inputs = Vec::new();
     let mut entries = Vec::new();
     let prefix = output_prefix(&args.output);
@@ -151,12 +195,19 @@ pub fn run(args: ScoreArgs) -> Result<()> {
             ));
         }
         for &method in &args.method {
-            let out = compute_saliency(method, &mesh, &SmsParams::default(), &bars)
-                .map_err(|e| anyhow::anyhow!("{}: {e}", mesh_path.display()))?;
+            if method == Method::Gaze {
+                refuse_training_object(&viewing, name)?;
+            }
+            let out =
+                compute_saliency_viewed(method, &mesh, &SmsParams::default(), &viewing, &bars)
+                    .map_err(|e| anyhow::anyhow!("{}: {e}", mesh_path.display()))?;
             seconds.push((method.name().to_string(), out.seconds));
             maps.push((method.name().to_string(), out.values));
         }
-        let score: MeshScore = score_mesh(&mesh, &truth, &maps, &params, &bars)
+        let seen = hold_view_exposure(&mesh, &viewing.protocol)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", mesh_path.display()))?
+            .seen();
+        let score: MeshScore = score_mesh(&mesh, &truth, &maps, &params, Some(&seen), &bars)
             .map_err(|e| anyhow::anyhow!("{}: {e}", mesh_path.display()))?;
         let plots = write_score_plots(&prefix, name, &maps, &score)?;
         write_score_rows(&mut csv, name, &score.rows)?;

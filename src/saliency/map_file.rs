@@ -7,7 +7,10 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use serde::Serialize;
 
-use super::{compute_saliency, sparse_metric_saliency, Method, SmsExtras, SmsParams, SmsResult};
+use super::{
+    compute_saliency_viewed, sparse_metric_saliency, Method, SmsExtras, SmsParams, SmsResult,
+    Viewing,
+};
 use crate::mesh::{write_ply_with_quality, LoadReport, Mesh};
 use crate::progress::Progress;
 use crate::provenance::{InputFile, Provenance};
@@ -102,6 +105,7 @@ pub fn compute_and_write_map(
     input: InputFile,
     method: Method,
     params: &SmsParams,
+    viewing: &Viewing,
     extras: MapOutputs,
     prefix: &Path,
     progress: &dyn Progress,
@@ -125,7 +129,7 @@ pub fn compute_and_write_map(
             Some(r),
         )
     } else {
-        let out = compute_saliency(method, mesh, params, progress).map_err(fail)?;
+        let out = compute_saliency_viewed(method, mesh, params, viewing, progress).map_err(fail)?;
         (out.values, out.report, out.seconds, None)
     };
     let gini = gini_index(&values);

@@ -6,9 +6,13 @@ use serde::{Deserialize, Serialize};
 use super::lee_mesh_saliency::{lee_mesh_saliency, LeeParams};
 use super::mean_curvature_saliency::mean_curvature_saliency;
 use super::spectral_irregularity::{spectral_irregularity, SpectralParams};
+use super::view_priors::{centre_prior, up_prior};
 use super::{sparse_metric_saliency, SmsExtras, SmsParams};
+use crate::gaze_model::surface_points::SurfacePoints;
+use crate::gaze_model::GazeModel;
 use crate::mesh::Mesh;
 use crate::progress::Progress;
+use crate::stimulus::protocol::Protocol;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
@@ -21,6 +25,12 @@ pub enum Method {
     Mc,
     /// Spectral irregularity of Song et al. 2014, on a simplified copy.
     Si,
+    /// Prior: height along the protocol's up axis.
+    Up,
+    /// Prior: mean closeness to the screen centre over the hold views showing the vertex.
+    Centre,
+    /// The learned gaze model (built-in, or `--model`).
+    Gaze,
 }
 
 impl Method {
@@ -30,6 +40,9 @@ impl Method {
             Method::Ms => "ms",
             Method::Mc => "mc",
             Method::Si => "si",
+            Method::Up => "up",
+            Method::Centre => "centre",
+            Method::Gaze => "gaze",
         }
     }
 }
@@ -41,11 +54,42 @@ pub struct MethodOutput {
     pub seconds: f64,
 }
 
-/// Computes `method` on `mesh` with its default parameters (SMS with `sms`).
+/// How the mesh is shown and what model predicts gaze: the inputs of the priors and of the
+/// gaze model (the shape methods ignore it).
+#[derive(Debug, Clone)]
+pub struct Viewing {
+    pub protocol: Protocol,
+    /// None: the built-in model.
+    pub model: Option<GazeModel>,
+}
+
+impl Viewing {
+    /// The built-in protocol (hu2020) and the built-in gaze model.
+    pub fn builtin() -> Viewing {
+        Viewing {
+            protocol: Protocol::builtin().0,
+            model: None,
+        }
+    }
+}
+
+/// Computes `method` on `mesh` with its default parameters (SMS with `sms`), shown as the
+/// built-in protocol shows it.
 pub fn compute_saliency(
     method: Method,
     mesh: &Mesh,
     sms: &SmsParams,
+    progress: &dyn Progress,
+) -> Result<MethodOutput, String> {
+    compute_saliency_viewed(method, mesh, sms, &Viewing::builtin(), progress)
+}
+
+/// Computes `method` on `mesh`, with `viewing` for the priors and the gaze model.
+pub fn compute_saliency_viewed(
+    method: Method,
+    mesh: &Mesh,
+    sms: &SmsParams,
+    viewing: &Viewing,
     progress: &dyn Progress,
 ) -> Result<MethodOutput, String> {
     if mesh.triangles.is_empty() {
@@ -77,6 +121,41 @@ pub fn compute_saliency(
             let (v, r) = spectral_irregularity(mesh, &params)?;
             progress.finish();
             (v, serde_json::to_value((&params, &r)))
+        }
+        Method::Up => (
+            up_prior(mesh, &viewing.protocol),
+            Ok(
+                serde_json::json!({"up": viewing.protocol.viewpoints.up, "protocol": viewing.protocol.name}),
+            ),
+        ),
+        Method::Centre => (
+            centre_prior(mesh, &viewing.protocol)?,
+            Ok(
+                serde_json::json!({"protocol": viewing.protocol.name, "display": [viewing.protocol.display.width_px, viewing.protocol.display.height_px]}),
+            ),
+        ),
+        Method::Gaze => {
+            progress.start("gaze model", 0);
+            let builtin;
+            let m = match &viewing.model {
+                Some(m) => m,
+                None => {
+                    builtin = GazeModel::builtin();
+                    &builtin
+                }
+            };
+            let mut v = m.predict(&SurfacePoints::of_mesh(mesh), &viewing.protocol)?;
+            super::sms::gaussian_interpolation::min_max_normalize(&mut v);
+            progress.finish();
+            (
+                v,
+                Ok(serde_json::json!({
+                    "protocol": viewing.protocol.name,
+                    "model_trained_on": m.training.objects.iter().map(|o| &o.name).collect::<Vec<_>>(),
+                    "model_sha256": crate::provenance::sha256_hex(m.to_json().as_bytes()),
+                    "trees": m.trees.trees.len(),
+                })),
+            )
         }
     };
     Ok(MethodOutput {

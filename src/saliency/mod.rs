@@ -5,8 +5,9 @@ pub mod mean_curvature_saliency;
 pub mod method;
 pub mod sms;
 pub mod spectral_irregularity;
+pub mod view_priors;
 
-pub use method::{compute_saliency, Method, MethodOutput};
+pub use method::{compute_saliency, compute_saliency_viewed, Method, MethodOutput, Viewing};
 pub use sms::sparse_metric_saliency::{
     descriptors_at, sparse_metric_saliency, FieldKind, SmsExtras, SmsParams, SmsResult,
 };

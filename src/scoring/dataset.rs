@@ -119,6 +119,7 @@ pub fn mean_summaries(entries: &[MeshEntry]) -> Vec<MethodSummary> {
             MethodSummary {
                 method: s.method.clone(),
                 auc_judd_unblurred: mean(&|x| x.auc_judd_unblurred),
+                auc_judd_visible_unblurred: mean(&|x| x.auc_judd_visible_unblurred),
                 auc_judd_peak: mean(&|x| x.auc_judd_peak),
                 auc_judd_peak_blur: mean(&|x| x.auc_judd_peak_blur),
                 chance_auc_judd_at_peak: mean(&|x| x.chance_auc_judd_at_peak),
@@ -156,11 +157,16 @@ pub fn write_score_rows(
 /// The Markdown table of AUC-Judd and LCC, unblurred and at the peak, per mesh and mean.
 pub fn score_table_markdown(entries: &[MeshEntry], mean: &[MethodSummary]) -> String {
     let mut t = String::new();
-    t.push_str("| mesh | method | AUC-Judd σ=0 | AUC-Judd peak (σ_b) | chance at that σ_b [95%] | LCC σ=0 | LCC peak (σ_b) |\n");
-    t.push_str("|---|---|---:|---:|---:|---:|---:|\n");
+    t.push_str("| mesh | method | AUC-Judd σ=0 | shown only σ=0 | AUC-Judd peak (σ_b) | chance at that σ_b [95%] | LCC σ=0 | LCC peak (σ_b) |\n");
+    t.push_str("|---|---|---:|---:|---:|---:|---:|---:|\n");
     let row = |t: &mut String, mesh: &str, s: &MethodSummary| {
+        let shown = if s.auc_judd_visible_unblurred.is_finite() {
+            format!("{:.3}", s.auc_judd_visible_unblurred)
+        } else {
+            "—".to_string()
+        };
         t.push_str(&format!(
-            "| {mesh} | {} | {:.3} | {:.3} ({:.2}) | {:.3} [{:.3}, {:.3}] | {:.3} | {:.3} ({:.2}) |\n",
+            "| {mesh} | {} | {:.3} | {shown} | {:.3} ({:.2}) | {:.3} [{:.3}, {:.3}] | {:.3} | {:.3} ({:.2}) |\n",
             s.method,
             s.auc_judd_unblurred,
             s.auc_judd_peak,
@@ -194,6 +200,7 @@ mod tests {
         MethodSummary {
             method: method.into(),
             auc_judd_unblurred: auc,
+            auc_judd_visible_unblurred: auc - 0.01,
             auc_judd_peak: auc + 0.1,
             auc_judd_peak_blur: 0.05,
             chance_auc_judd_at_peak: 0.5,

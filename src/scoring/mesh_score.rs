@@ -66,6 +66,9 @@ pub struct ScoreRow {
 pub struct MethodSummary {
     pub method: String,
     pub auc_judd_unblurred: f64,
+    /// AUC-Judd unblurred with never-shown vertices left out of the negatives (NaN when the
+    /// scoring had no visibility).
+    pub auc_judd_visible_unblurred: f64,
     pub auc_judd_peak: f64,
     pub auc_judd_peak_blur: f64,
     /// The chance maps' mean AUC-Judd at the same blur as this method's peak, and the 2.5th
@@ -277,12 +280,14 @@ struct Target<'a> {
     density: Vec<f64>,
     weights: Option<&'a [f64]>,
     params: &'a ScoreParams,
+    seen: Option<&'a [bool]>,
 }
 
 impl Target<'_> {
-    fn metrics_of(&self, map: &[f64]) -> [(&'static str, f64); 7] {
+    /// Every metric of one map; AUC-Judd comes first (the chance band reads it there).
+    fn metrics_of(&self, map: &[f64]) -> Vec<(&'static str, f64)> {
         let (w, p) = (self.weights, self.params);
-        [
+        let mut metrics = vec![
             ("auc_judd", auc_judd(map, self.positive, w)),
             (
                 "auc_borji",
@@ -296,8 +301,30 @@ impl Target<'_> {
                 "gini",
                 gini_index(&map.iter().map(|v| v.max(0.0)).collect::<Vec<_>>()),
             ),
-        ]
+        ];
+        if let Some(seen) = self.seen {
+            metrics.push((AUC_JUDD_VISIBLE, auc_judd_seen(map, self.positive, seen, w)));
+        }
+        metrics
     }
+}
+
+/// The metric name of AUC-Judd with never-shown vertices left out of the negatives.
+pub const AUC_JUDD_VISIBLE: &str = "auc_judd_visible";
+
+/// AUC-Judd over the positives and only those negatives with `seen` set: a vertex no view
+/// ever showed cannot be a miss.
+pub fn auc_judd_seen(
+    map: &[f64],
+    positive: &[bool],
+    seen: &[bool],
+    weights: Option<&[f64]>,
+) -> f64 {
+    let keep: Vec<usize> = (0..map.len()).filter(|&i| positive[i] || seen[i]).collect();
+    let m: Vec<f64> = keep.iter().map(|&i| map[i]).collect();
+    let p: Vec<bool> = keep.iter().map(|&i| positive[i]).collect();
+    let w: Option<Vec<f64>> = weights.map(|w| keep.iter().map(|&i| w[i]).collect());
+    auc_judd(&m, &p, w.as_deref())
 }
 
 /// The split-half human ceiling at one blur: (metric, mean over splits) for AUC-Judd, LCC, NSS.
@@ -347,6 +374,7 @@ fn summaries_of(rows: &[ScoreRow], methods: &[(String, Vec<f64>)]) -> Vec<Method
             MethodSummary {
                 method: name.to_string(),
                 auc_judd_unblurred: value_at(rows, name, "auc_judd", 0.0),
+                auc_judd_visible_unblurred: value_at(rows, name, AUC_JUDD_VISIBLE, 0.0),
                 auc_judd_peak: auc_peak,
                 auc_judd_peak_blur: auc_blur,
                 chance_auc_judd_at_peak: value_at(rows, CHANCE, "auc_judd", auc_blur),
@@ -363,13 +391,20 @@ fn summaries_of(rows: &[ScoreRow], methods: &[(String, Vec<f64>)]) -> Vec<Method
 }
 
 /// Scores `maps` (name, one value per vertex) against `truth` on `mesh`.
+///
+/// `seen` (one flag per vertex: shown by some hold view of the stimulus) adds the metric
+/// `auc_judd_visible`, AUC-Judd with never-shown vertices left out of the negatives.
 pub fn score_mesh(
     mesh: &Mesh,
     truth: &GroundTruth,
     maps: &[(String, Vec<f64>)],
     params: &ScoreParams,
+    seen: Option<&[bool]>,
     progress: &dyn Progress,
 ) -> Result<MeshScore, String> {
+    if seen.is_some_and(|s| s.len() != mesh.positions.len()) {
+        return Err("the visibility flags must have one entry per vertex".to_string());
+    }
     if params.chance_maps == 0 {
         return Err("the chance band needs at least one random map".to_string());
     }
@@ -415,13 +450,14 @@ pub fn score_mesh(
             },
             weights,
             params,
+            seen,
         };
         for ((name, _), map) in maps.iter().zip(method_maps) {
             for (metric, value) in target.metrics_of(map) {
                 push(name, metric, value);
             }
         }
-        let chance_metrics: Vec<[(&'static str, f64); 7]> = chance_blurred
+        let chance_metrics: Vec<Vec<(&'static str, f64)>> = chance_blurred
             .iter()
             .map(|m| target.metrics_of(m))
             .collect();

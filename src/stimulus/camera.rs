@@ -171,6 +171,12 @@ impl CameraPlan {
             .flatten()
             .map(|&i| (mesh.positions[i as usize] - center).length())
             .fold(0.0, f64::max);
+        CameraPlan::around(center, radius, protocol)
+    }
+
+    /// The plan for any object whose bounding-box centre and farthest point from it are
+    /// known (a point cloud, say), framed exactly as a mesh with those bounds would be.
+    pub fn around(center: DVec3, radius: f64, protocol: &Protocol) -> Result<CameraPlan, String> {
         if radius.is_nan() || radius <= 0.0 {
             return Err("the mesh has no extent".into());
         }

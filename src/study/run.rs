@@ -25,6 +25,7 @@ use crate::saliency::map_file::{compute_and_write_map, read_map, MapOutputs};
 use crate::saliency::SmsParams;
 use crate::scoring::dataset::{write_score_rows, SCORE_CSV_HEADER};
 use crate::scoring::{score_mesh, ScoreParams};
+use crate::stimulus::hold_views::hold_view_exposure;
 use crate::stimulus::load::{load_stimulus, LoadedStimulus};
 use crate::stimulus::{render_stimulus, FrameImages, StimulusOptions};
 use crate::truth::{build_truth, read_projections, write_truth, TruthParams};
@@ -567,6 +568,10 @@ fn saliency_step(
             InputFile::hash(&stim.mesh_path)?,
             method,
             &SmsParams::default(),
+            &crate::saliency::Viewing {
+                protocol: study.protocol.clone(),
+                model: None,
+            },
             MapOutputs::default(),
             &prefix,
             &Silent,
@@ -597,6 +602,7 @@ fn score_step(
     let truth_csv = truth_dir.join("truth.csv");
     let mut parts = vec![
         "score".to_string(),
+        "visible-negatives".to_string(),
         stim.mesh_sha256.clone(),
         hash_file(&truth_csv)?,
     ];
@@ -613,8 +619,18 @@ fn score_step(
         return Ok(());
     }
     let truth = crate::truth::load_ground_truth(&truth_csv, stim.mesh.positions.len(), 0.05)?;
-    let score = score_mesh(&stim.mesh, &truth, maps, &ScoreParams::default(), &Silent)
-        .map_err(anyhow::Error::msg)?;
+    let seen = hold_view_exposure(&stim.mesh, &stim.protocol)
+        .map_err(anyhow::Error::msg)?
+        .seen();
+    let score = score_mesh(
+        &stim.mesh,
+        &truth,
+        maps,
+        &ScoreParams::default(),
+        Some(&seen),
+        &Silent,
+    )
+    .map_err(anyhow::Error::msg)?;
     create_output_dir(&score_dir.join("chance"))?;
     let mut bytes = Vec::new();
     write_score_rows(&mut bytes, &m.name, &score.rows)?;

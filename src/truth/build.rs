@@ -230,7 +230,7 @@ pub fn build_truth(
         ..ScoreParams::default()
     };
     let score =
-        score_mesh(mesh, &truth, &[], &score_params, progress).map_err(anyhow::Error::msg)?;
+        score_mesh(mesh, &truth, &[], &score_params, None, progress).map_err(anyhow::Error::msg)?;
     let human: Vec<(f64, &'static str, f64)> = score
         .rows
         .iter()

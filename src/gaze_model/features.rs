@@ -1,0 +1,142 @@
+//! The gaze model's per-point features. None needs human input or connectivity: they come
+//! from positions, normals and the protocol (its up axis, its first view as "front", its
+//! hold views), so point-only objects can be training data and any mesh can be predicted.
+use glam::DVec3;
+
+use super::local_shape::local_shape;
+use super::surface_points::SurfacePoints;
+use super::view_visibility::{bounds, view_exposure};
+use crate::stimulus::protocol::Protocol;
+
+/// Ball radii of the local-shape features, as fractions of the object's radius.
+pub const SHAPE_RADII: [f64; 4] = [0.04, 0.08, 0.16, 0.32];
+
+/// Feature names in column order; a model stores them and refuses a different list.
+pub fn feature_names() -> Vec<String> {
+    let mut names: Vec<String> = [
+        "height",
+        "height_rank",
+        "front",
+        "side_distance",
+        "axis_distance",
+        "centre_distance",
+        "normal_up",
+        "normal_front",
+        "normal_outward",
+    ]
+    .iter()
+    .map(|s| s.to_string())
+    .collect();
+    for r in SHAPE_RADII {
+        for what in ["variation", "convexity", "normal_agreement"] {
+            names.push(format!("{what}_r{r}"));
+        }
+    }
+    for name in ["seen_fraction", "centre_closeness", "facing", "openness"] {
+        names.push(name.to_string());
+    }
+    names
+}
+
+/// Column-major feature matrix: `columns[f][i]` is feature f of point i.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FeatureMatrix {
+    pub names: Vec<String>,
+    pub columns: Vec<Vec<f64>>,
+}
+
+impl FeatureMatrix {
+    pub fn rows(&self) -> usize {
+        self.columns.first().map_or(0, Vec::len)
+    }
+
+    pub fn column(&self, name: &str) -> Option<&[f64]> {
+        let i = self.names.iter().position(|n| n == name)?;
+        Some(&self.columns[i])
+    }
+}
+
+/// The protocol's up axis and its "front" (the first view's direction made perpendicular to
+/// up), both unit.
+pub fn up_and_front(protocol: &Protocol) -> (DVec3, DVec3) {
+    let up = DVec3::from_array(protocol.viewpoints.up).normalize_or(DVec3::Y);
+    let first = DVec3::from_array(protocol.viewpoints.first);
+    let front = (first - up * first.dot(up)).normalize_or(up.any_orthonormal_vector());
+    (up, front)
+}
+
+/// Every feature of every point.
+pub fn point_features(
+    points: &SurfacePoints,
+    protocol: &Protocol,
+) -> Result<FeatureMatrix, String> {
+    let (center, radius) = bounds(points).ok_or("no points")?;
+    if radius <= 0.0 || !radius.is_finite() {
+        return Err("the points have no extent".into());
+    }
+    let (up, front) = up_and_front(protocol);
+    let side = up.cross(front);
+    let n = points.len();
+    let rel: Vec<DVec3> = points
+        .positions
+        .iter()
+        .map(|&p| (p - center) / radius)
+        .collect();
+    let height: Vec<f64> = rel.iter().map(|q| q.dot(up)).collect();
+    let mut columns = vec![
+        height.clone(),
+        ranks(&height),
+        rel.iter().map(|q| q.dot(front)).collect(),
+        rel.iter().map(|q| q.dot(side).abs()).collect(),
+        rel.iter().map(|q| (*q - up * q.dot(up)).length()).collect(),
+        rel.iter().map(|q| q.length()).collect(),
+        points.normals.iter().map(|m| m.dot(up)).collect(),
+        points.normals.iter().map(|m| m.dot(front)).collect(),
+        rel.iter()
+            .zip(&points.normals)
+            .map(|(q, m)| m.dot(q.normalize_or_zero()))
+            .collect(),
+    ];
+    let radii: Vec<f64> = SHAPE_RADII.iter().map(|f| f * radius).collect();
+    for scale in local_shape(points, &radii) {
+        columns.push(scale.iter().map(|s| s.variation).collect());
+        columns.push(scale.iter().map(|s| s.convexity).collect());
+        columns.push(scale.iter().map(|s| s.normal_agreement).collect());
+    }
+    let views = view_exposure(points, protocol)?;
+    columns.push(views.seen_fraction);
+    columns.push(views.centre_closeness);
+    columns.push(views.facing);
+    columns.push(views.openness);
+    debug_assert!(columns.iter().all(|c| c.len() == n));
+    Ok(FeatureMatrix {
+        names: feature_names(),
+        columns,
+    })
+}
+
+/// Fractional ranks in [0, 1] (ties share their mean rank): a per-object, scale-free version
+/// of a value.
+pub fn ranks(values: &[f64]) -> Vec<f64> {
+    let n = values.len();
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| values[a].total_cmp(&values[b]));
+    let mut out = vec![0.0; n];
+    let mut i = 0;
+    while i < n {
+        let mut j = i;
+        while j + 1 < n && values[order[j + 1]] == values[order[i]] {
+            j += 1;
+        }
+        let rank = if n > 1 {
+            0.5 * (i + j) as f64 / (n - 1) as f64
+        } else {
+            0.5
+        };
+        for &k in &order[i..=j] {
+            out[k] = rank;
+        }
+        i = j + 1;
+    }
+    out
+}

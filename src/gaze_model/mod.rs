@@ -1,0 +1,240 @@
+//! A learned predictor of where people look: boosted trees over features that need no human
+//! input (shape at several scales, placement along the protocol's up and front axes, what
+//! the protocol's views show), trained on a lab's own per-point fixation flags.
+//!
+//! Training objects are oriented points with a 0/1 flag (the VR experiment's upstream gaze
+//! files, 44 objects, 29 of them with no mesh), so every feature is computed from points
+//! and normals alone; a mesh is predicted from its vertices and vertex normals.
+pub mod boosted_trees;
+pub mod cross_validation;
+pub mod features;
+pub mod local_shape;
+pub mod surface_points;
+pub mod view_visibility;
+
+use std::path::Path;
+
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+use serde::{Deserialize, Serialize};
+
+use self::boosted_trees::{BoostParams, BoostedTrees};
+use self::features::{feature_names, point_features, FeatureMatrix};
+use self::surface_points::{read_gaze_points, SurfacePoints};
+use crate::provenance::sha256_hex;
+use crate::stimulus::protocol::Protocol;
+
+/// The model shipped with meshgaze, trained on every object of ../shared/data/fixations-vr/
+/// points by `meshgaze train --dataset ../shared/data/fixations-vr -o models/gaze-vr.json`.
+pub const BUILTIN_MODEL: &str = include_str!("../../models/gaze-vr.json");
+
+pub const MODEL_FORMAT: &str = "meshgaze-gaze-model";
+
+/// One training object: its features and per-point flags.
+#[derive(Debug, Clone)]
+pub struct TrainingObject {
+    pub name: String,
+    pub sha256: String,
+    pub features: FeatureMatrix,
+    pub labels: Vec<bool>,
+}
+
+/// What a model was trained on and how (all of it fixes the bytes of the model).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainingRecord {
+    pub objects: Vec<ObjectRecord>,
+    pub rows_per_object: usize,
+    pub seed: u64,
+    pub protocol: String,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ObjectRecord {
+    pub name: String,
+    pub sha256: String,
+    pub points: usize,
+    pub positives: usize,
+    pub rows_used: usize,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct GazeModel {
+    pub format: String,
+    pub version: u32,
+    pub tool_version: String,
+    pub features: Vec<String>,
+    pub training: TrainingRecord,
+    pub trees: BoostedTrees,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainOptions {
+    pub params: BoostParams,
+    /// Points drawn from each object (all of them when it has fewer), so every object
+    /// weighs the same whatever its size.
+    pub rows_per_object: usize,
+    pub seed: u64,
+}
+
+impl Default for TrainOptions {
+    fn default() -> Self {
+        TrainOptions {
+            params: BoostParams::default(),
+            rows_per_object: 4000,
+            seed: 1,
+        }
+    }
+}
+
+/// Reads a gaze-point file with a flag column and computes its features.
+pub fn training_object(path: &Path, protocol: &Protocol) -> Result<TrainingObject, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    let points = read_gaze_points(path).map_err(|e| e.to_string())?;
+    let Some(labels) = points.flag else {
+        return Err(format!(
+            "{}: no flag column (8th), so nothing to learn from",
+            path.display()
+        ));
+    };
+    let features =
+        point_features(&points.points, protocol).map_err(|e| format!("{}: {e}", path.display()))?;
+    Ok(TrainingObject {
+        name: object_name(path),
+        sha256: sha256_hex(&bytes),
+        features,
+        labels,
+    })
+}
+
+/// `bunny` for `points/bunny.txt.gz`.
+pub fn object_name(path: &Path) -> String {
+    let file = path.file_name().unwrap_or_default().to_string_lossy();
+    let file = file.strip_suffix(".gz").unwrap_or(&file);
+    match file.split_once('.') {
+        Some((stem, _)) => stem.to_string(),
+        None => file.to_string(),
+    }
+}
+
+/// Trains on `objects` (in the given order; callers sort by name for reproducible bytes).
+pub fn train_model(
+    objects: &[&TrainingObject],
+    options: &TrainOptions,
+    protocol_name: &str,
+) -> Result<GazeModel, String> {
+    let names = feature_names();
+    let mut columns: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
+    let mut labels = Vec::new();
+    let mut records = Vec::new();
+    for object in objects {
+        if object.features.names != names {
+            return Err(format!("{}: features of another version", object.name));
+        }
+        let rows = sample_rows(object, options);
+        for (f, column) in columns.iter_mut().enumerate() {
+            column.extend(rows.iter().map(|&i| object.features.columns[f][i]));
+        }
+        labels.extend(rows.iter().map(|&i| object.labels[i]));
+        records.push(ObjectRecord {
+            name: object.name.clone(),
+            sha256: object.sha256.clone(),
+            points: object.labels.len(),
+            positives: object.labels.iter().filter(|&&b| b).count(),
+            rows_used: rows.len(),
+        });
+    }
+    let weights = vec![1.0; labels.len()];
+    let trees = boosted_trees::train(&columns, &labels, &weights, &options.params)?;
+    Ok(GazeModel {
+        format: MODEL_FORMAT.to_string(),
+        version: 1,
+        tool_version: env!("CARGO_PKG_VERSION").to_string(),
+        features: names,
+        training: TrainingRecord {
+            objects: records,
+            rows_per_object: options.rows_per_object,
+            seed: options.seed,
+            protocol: protocol_name.to_string(),
+        },
+        trees,
+    })
+}
+
+/// The rows of an object used for training: a seeded draw that depends only on the seed and
+/// the object's name, so an object contributes the same rows to every fold.
+fn sample_rows(object: &TrainingObject, options: &TrainOptions) -> Vec<usize> {
+    let n = object.labels.len();
+    let mut rows: Vec<usize> = (0..n).collect();
+    if n > options.rows_per_object {
+        let seed = options.seed
+            ^ u64::from_str_radix(&sha256_hex(object.name.as_bytes())[..16], 16).unwrap_or(0);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        rows.shuffle(&mut rng);
+        rows.truncate(options.rows_per_object);
+        rows.sort_unstable();
+    }
+    rows
+}
+
+impl GazeModel {
+    /// Reads a model file, refusing one whose format or features this build does not know.
+    pub fn from_json(text: &str, name: &str) -> Result<GazeModel, String> {
+        let model: GazeModel =
+            serde_json::from_str(text).map_err(|e| format!("{name}: not a gaze model: {e}"))?;
+        if model.format != MODEL_FORMAT {
+            return Err(format!(
+                "{name}: format `{}`, expected `{MODEL_FORMAT}`",
+                model.format
+            ));
+        }
+        if model.features != feature_names() {
+            return Err(format!(
+                "{name}: trained on features [{}], this build computes [{}]; retrain it with `meshgaze train`",
+                model.features.join(", "),
+                feature_names().join(", ")
+            ));
+        }
+        Ok(model)
+    }
+
+    pub fn builtin() -> GazeModel {
+        GazeModel::from_json(BUILTIN_MODEL, "built-in model").expect("the built-in model loads")
+    }
+
+    /// The JSON bytes (the same for the same training data and options).
+    pub fn to_json(&self) -> String {
+        serde_json::to_string(self).expect("a model serializes") + "\n"
+    }
+
+    /// Probability of being among the most looked-at points, per point.
+    pub fn predict(&self, points: &SurfacePoints, protocol: &Protocol) -> Result<Vec<f64>, String> {
+        let features = point_features(points, protocol)?;
+        Ok(self.predict_features(&features))
+    }
+
+    pub fn predict_features(&self, features: &FeatureMatrix) -> Vec<f64> {
+        self.trees
+            .predict(&features.columns)
+            .iter()
+            .map(|s| 1.0 / (1.0 + (-s).exp()))
+            .collect()
+    }
+
+    /// Features by share of the total split gain, largest first.
+    pub fn importances(&self) -> Vec<(String, f64)> {
+        let total: f64 = self.trees.gain.iter().sum();
+        let mut v: Vec<(String, f64)> = self
+            .features
+            .iter()
+            .cloned()
+            .zip(
+                self.trees
+                    .gain
+                    .iter()
+                    .map(|g| g / total.max(f64::MIN_POSITIVE)),
+            )
+            .collect();
+        v.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
+        v
+    }
+}

@@ -1,0 +1,247 @@
+//! The gaze model, the `up` and `centre` priors and the visibility-aware AUC.
+mod common;
+
+use std::path::Path;
+
+use glam::DVec3;
+use proptest::prelude::*;
+use rand::seq::SliceRandom;
+use rand::SeedableRng;
+
+use meshgaze::gaze_model::surface_points::{parse_gaze_points, SurfacePoints};
+use meshgaze::gaze_model::{train_model, training_object, TrainOptions, TrainingObject};
+use meshgaze::mesh::{load_mesh, Mesh};
+use meshgaze::saliency::view_priors::{centre_prior, up_prior};
+use meshgaze::scoring::auc::auc_judd;
+use meshgaze::scoring::mesh_score::auc_judd_seen;
+use meshgaze::stimulus::hold_views::hold_view_exposure;
+use meshgaze::stimulus::protocol::Protocol;
+use meshgaze::truth::{load_ground_truth, GroundTruth};
+
+fn objects(points: &Path, names: &[&str], protocol: &Protocol) -> Vec<TrainingObject> {
+    names
+        .iter()
+        .map(|n| training_object(&points.join(format!("{n}.txt.gz")), protocol).unwrap())
+        .collect()
+}
+
+fn vr_mesh(data: &Path, name: &str) -> (Mesh, Vec<bool>) {
+    let vr = data.join("fixations-vr");
+    let (mesh, _) = load_mesh(&vr.join(format!("meshes/{name}.obj.gz"))).unwrap();
+    let truth = load_ground_truth(
+        &vr.join(format!("truth/{name}_objorder_time_bin.txt.gz")),
+        mesh.positions.len(),
+        0.05,
+    )
+    .unwrap();
+    let GroundTruth::VertexMap(m) = truth else {
+        panic!("per-vertex truth expected")
+    };
+    (mesh, m.positive)
+}
+
+/// Trained on ten other objects, the model predicts the held-out bunny far above chance;
+/// trained on the same points with each object's flags shuffled, it is at chance. (A model
+/// that could read the answer from somewhere other than the shape would pass the first
+/// check and fail the second.)
+#[test]
+fn held_out_bunny_is_predicted_and_shuffled_labels_teach_nothing() {
+    let Some(data) = common::shared_data("held_out_bunny_is_predicted") else {
+        return;
+    };
+    let (protocol, _) = Protocol::builtin();
+    let names = [
+        "cow", "dinosaur", "horse", "hand", "igea", "cat", "dog", "wolf", "lion", "gorilla",
+    ];
+    let train = objects(&data.join("fixations-vr/points"), &names, &protocol);
+    let options = TrainOptions {
+        rows_per_object: 2000,
+        params: meshgaze::gaze_model::boosted_trees::BoostParams {
+            rounds: 80,
+            ..Default::default()
+        },
+        ..TrainOptions::default()
+    };
+    let refs: Vec<&TrainingObject> = train.iter().collect();
+    let model = train_model(&refs, &options, "hu2020").unwrap();
+    let (bunny, positive) = vr_mesh(&data, "bunny");
+    let predicted = model
+        .predict(&SurfacePoints::of_mesh(&bunny), &protocol)
+        .unwrap();
+    let auc = auc_judd(&predicted, &positive, None);
+    assert!(auc > 0.75, "held-out bunny AUC-Judd {auc:.3}");
+
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+    let shuffled: Vec<TrainingObject> = train
+        .iter()
+        .map(|o| {
+            let mut o = o.clone();
+            o.labels.shuffle(&mut rng);
+            o
+        })
+        .collect();
+    let refs: Vec<&TrainingObject> = shuffled.iter().collect();
+    let noise = train_model(&refs, &options, "hu2020").unwrap();
+    let predicted = noise
+        .predict(&SurfacePoints::of_mesh(&bunny), &protocol)
+        .unwrap();
+    let auc_noise = auc_judd(&predicted, &positive, None);
+    assert!(
+        (auc_noise - 0.5).abs() < 0.08,
+        "shuffled-label model AUC-Judd {auc_noise:.3}"
+    );
+}
+
+/// The committed built-in model is exactly what README's command trains (same bytes), so it
+/// can be rebuilt from ../shared/data alone.
+#[test]
+fn the_builtin_model_is_what_the_documented_command_trains() {
+    let Some(data) = common::shared_data("the_builtin_model_is_what_the_documented_command_trains")
+    else {
+        return;
+    };
+    let out = std::env::temp_dir().join(format!("meshgaze-builtin-{}.json", std::process::id()));
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+        .args(["train", "--quiet", "--dataset"])
+        .arg(data.join("fixations-vr"))
+        .arg("-o")
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let retrained = std::fs::read_to_string(&out).unwrap();
+    let committed =
+        std::fs::read_to_string(common::repo_root().join("models/gaze-vr.json")).unwrap();
+    let _ = std::fs::remove_file(&out);
+    assert!(
+        retrained == committed,
+        "models/gaze-vr.json differs from a fresh `meshgaze train --dataset ../shared/data/fixations-vr`; retrain and commit it"
+    );
+}
+
+/// `score --method gaze` on an object the model was trained on is refused, naming why.
+#[test]
+fn scoring_the_model_on_its_own_training_object_is_refused() {
+    let Some(data) = common::shared_data("scoring_the_model_on_its_own_training_object") else {
+        return;
+    };
+    let vr = data.join("fixations-vr");
+    let out = std::env::temp_dir().join(format!("meshgaze-refuse-{}", std::process::id()));
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+        .args(["score", "--quiet", "--method", "gaze", "--mesh"])
+        .arg(vr.join("meshes/bunny.obj.gz"))
+        .arg("--truth")
+        .arg(vr.join("truth/bunny_objorder_time_bin.txt.gz"))
+        .arg("-o")
+        .arg(&out)
+        .output()
+        .unwrap();
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("training-set figure"), "{err}");
+}
+
+/// A closed box with a smaller box hidden inside it: no hold view shows the inner one.
+fn box_in_box() -> Mesh {
+    let mut mesh = Mesh {
+        positions: Vec::new(),
+        triangles: Vec::new(),
+    };
+    for scale in [1.0, 0.3] {
+        let base = mesh.positions.len() as u32;
+        for i in 0..8 {
+            mesh.positions.push(DVec3::new(
+                if i & 1 == 0 { -scale } else { scale },
+                if i & 2 == 0 { -scale } else { scale },
+                if i & 4 == 0 { -scale } else { scale },
+            ));
+        }
+        for q in [
+            [0, 2, 3, 1],
+            [4, 5, 7, 6],
+            [0, 1, 5, 4],
+            [2, 6, 7, 3],
+            [0, 4, 6, 2],
+            [1, 3, 7, 5],
+        ] {
+            mesh.triangles.push([base + q[0], base + q[1], base + q[2]]);
+            mesh.triangles.push([base + q[0], base + q[2], base + q[3]]);
+        }
+    }
+    mesh
+}
+
+#[test]
+fn hidden_vertices_are_never_shown_and_leave_the_negatives() {
+    let (protocol, _) = Protocol::builtin();
+    let mesh = box_in_box();
+    let exposure = hold_view_exposure(&mesh, &protocol).unwrap();
+    let seen = exposure.seen();
+    assert!(seen[..8].iter().all(|&s| s), "{:?}", exposure.seen_views);
+    assert!(seen[8..].iter().all(|&s| !s), "{:?}", exposure.seen_views);
+    // The centre prior is 0 where nothing is shown, positive elsewhere.
+    let centre = centre_prior(&mesh, &protocol).unwrap();
+    assert!(centre[8..].iter().all(|&c| c == 0.0));
+    assert!(centre[..8].iter().all(|&c| c > 0.0));
+    // A map that ranks the hidden vertices highest: plain AUC counts them as misses, the
+    // visibility-aware AUC does not.
+    let positive: Vec<bool> = (0..16).map(|i| i == 0).collect();
+    let map: Vec<f64> = (0..16)
+        .map(|i| {
+            if i >= 8 {
+                1.0
+            } else if i == 0 {
+                0.9
+            } else {
+                0.1
+            }
+        })
+        .collect();
+    let plain = auc_judd(&map, &positive, None);
+    let visible = auc_judd_seen(&map, &positive, &seen, None);
+    assert!(plain < 0.7 && visible > 0.99, "{plain} {visible}");
+}
+
+#[test]
+fn the_up_prior_follows_the_protocol_up_axis() {
+    let (mut protocol, _) = Protocol::builtin();
+    let mesh = box_in_box();
+    let up = up_prior(&mesh, &protocol);
+    for (i, &u) in up.iter().enumerate().take(8) {
+        let expected = if i & 2 == 0 { 0.0 } else { 1.0 };
+        assert_eq!(u, expected, "vertex {i}");
+    }
+    protocol.viewpoints.up = [0.0, 0.0, 1.0];
+    protocol.viewpoints.first = [1.0, 0.0, 0.0];
+    let up = up_prior(&mesh, &protocol);
+    assert_eq!(up[4], 1.0);
+    assert_eq!(up[0], 0.0);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(256))]
+    /// Any bytes: a parse or a located error, never a panic; an error's line is in the file.
+    #[test]
+    fn gaze_point_parser_never_panics(
+        lines in proptest::collection::vec(
+            prop_oneof![
+                Just("0.1 0.2 0.3 0 1 0 0.5 1".to_string()),
+                Just("0.1 0.2 0.3 0 1 0 0.5 0".to_string()),
+                Just("".to_string()),
+                Just("# c".to_string()),
+                "[ -~]{0,40}",
+                "[0-9. eE+-]{0,40}",
+            ],
+            0..20
+        )
+    ) {
+        let text = lines.join("\n");
+        match parse_gaze_points(text.as_bytes(), "p") {
+            Ok(points) => {
+                prop_assert!(!points.points.is_empty());
+                prop_assert!(points.points.positions.iter().all(|p| p.is_finite()));
+            }
+            Err(e) => prop_assert!(e.line <= lines.len().max(1), "{e}"),
+        }
+    }
+}
