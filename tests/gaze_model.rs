@@ -245,3 +245,52 @@ proptest! {
         }
     }
 }
+
+/// A dataset of meshes with per-vertex truth and no points files trains too: each mesh is
+/// one object, its top 5% vertices by truth value the positives.
+#[test]
+fn meshes_with_truth_are_training_objects() {
+    let Some(data) = common::shared_data("meshes_with_truth_are_training_objects") else {
+        return;
+    };
+    let vr = data.join("fixations-vr");
+    let dir = std::env::temp_dir().join(format!("meshgaze-meshds-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(dir.join("meshes")).unwrap();
+    std::fs::create_dir_all(dir.join("truth")).unwrap();
+    for n in ["cow", "hand"] {
+        std::fs::copy(
+            vr.join(format!("meshes/{n}.obj.gz")),
+            dir.join(format!("meshes/{n}.obj.gz")),
+        )
+        .unwrap();
+        let t = format!("truth/{n}_objorder_time_bin.txt.gz");
+        std::fs::copy(vr.join(&t), dir.join(&t)).unwrap();
+    }
+    let out = dir.join("model.json");
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+        .args(["train", "--quiet", "--rounds", "10", "--dataset"])
+        .arg(&dir)
+        .arg("-o")
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let model = meshgaze::gaze_model::GazeModel::from_json(
+        &std::fs::read_to_string(&out).unwrap(),
+        "model",
+    )
+    .unwrap();
+    let names: Vec<&str> = model
+        .training
+        .objects
+        .iter()
+        .map(|o| o.name.as_str())
+        .collect();
+    assert_eq!(names, ["cow", "hand"]);
+    for o in &model.training.objects {
+        let share = o.positives as f64 / o.points as f64;
+        assert!((share - 0.05).abs() < 0.01, "{}: {share}", o.name);
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -9,15 +9,19 @@ use meshgaze::gaze_model::cross_validation::{
     leave_one_object_out, mean_rows, CvRow, EvaluationMesh,
 };
 use meshgaze::gaze_model::{
-    object_name, train_model, training_object, TrainOptions, TrainingObject,
+    object_name, train_model, training_object, training_object_from_map, TrainOptions,
+    TrainingObject,
 };
 use meshgaze::mesh::load_mesh;
 use meshgaze::progress::Progress;
+use meshgaze::provenance::{sha256_hex, InputFile};
 use meshgaze::report::html::thumbnail;
 use meshgaze::report::map_render::render_map;
 use meshgaze::scoring::dataset::dataset_pairs;
 use meshgaze::stimulus::camera::CameraPlan;
+use meshgaze::stimulus::load::load_stimulus;
 use meshgaze::stimulus::protocol::Protocol;
+use meshgaze::study::run::read_density;
 use meshgaze::truth::{load_ground_truth, GroundTruth};
 
 use super::progress_bar::Bars;
@@ -42,9 +46,18 @@ use super::progress_bar::Bars;
 /// Example: meshgaze train --dataset ../shared/data/fixations-vr -o gaze.json --cv
 #[derive(Debug, Args)]
 pub struct TrainArgs {
-    /// Dataset folders with `points/` (and, for --cv, `meshes/` and `truth/`).
-    #[arg(long, required = true, num_args = 1..)]
+    /// Dataset folders with `points/` and/or `meshes/` + `truth/` (as `meshgaze score
+    /// --dataset` reads them). A mesh with no points file of its name trains too, its
+    /// top `--top-fraction` vertices by truth value as positives.
+    #[arg(long, num_args = 1..)]
     pub dataset: Vec<PathBuf>,
+    /// Study output folders (`meshgaze study run`): each mesh with truth/<mesh>/density.csv
+    /// trains, its top `--top-fraction` vertices by fixation density as positives.
+    #[arg(long, num_args = 1..)]
+    pub study: Vec<PathBuf>,
+    /// Fraction of a mesh's vertices taken as positives when its truth is a map.
+    #[arg(long, default_value_t = 0.05)]
+    pub top_fraction: f64,
     /// The model file to write (JSON).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -95,28 +108,47 @@ pub fn run(args: TrainArgs) -> Result<()> {
         rows_per_object: args.rows_per_object,
         seed: args.seed,
     };
-    let mut files = point_files(&args.dataset)?;
-    for name in &args.exclude {
-        let before = files.len();
-        files.retain(|f| &object_name(f) != name);
-        if files.len() == before {
-            bail!("--exclude {name}: no training object of that name in the datasets");
+    if args.dataset.is_empty() && args.study.is_empty() {
+        bail!("nothing to train on: give --dataset DIR (points/, or meshes/ + truth/) and/or --study OUT");
+    }
+    let files = point_files(&args.dataset)?;
+    let mut sources: Vec<Source> = files.iter().cloned().map(Source::Points).collect();
+    for d in &args.dataset {
+        if !d.join("meshes").is_dir() {
+            continue;
         }
+        for (name, mesh, truth) in dataset_pairs(d)? {
+            if !files.iter().any(|f| object_name(f) == name) {
+                sources.push(Source::MeshTruth { name, mesh, truth });
+            }
+        }
+    }
+    for out in &args.study {
+        sources.extend(study_sources(out)?);
+    }
+    for name in &args.exclude {
+        let before = sources.len();
+        sources.retain(|s| s.name() != *name);
+        if sources.len() == before {
+            bail!("--exclude {name}: no training object of that name");
+        }
+    }
+    if sources.is_empty() {
+        bail!("no training objects found in the given folders");
     }
     let bars = Bars::new(args.quiet);
     let t = std::time::Instant::now();
-    bars.start("features of the training objects", files.len() as u64);
-    let objects: Vec<TrainingObject> = files
+    bars.start("features of the training objects", sources.len() as u64);
+    let objects: Vec<TrainingObject> = sources
         .par_iter()
-        .map(|f| {
-            let o = training_object(f, &protocol);
+        .map(|s| {
+            let o = s.object(&protocol, args.top_fraction);
             bars.advance(1);
             o
         })
-        .collect::<Result<_, String>>()
-        .map_err(anyhow::Error::msg)?;
+        .collect::<Result<_>>()?;
     bars.finish();
-    check_unique_names(&objects, &files)?;
+    check_unique_names(&objects, &sources)?;
     let feature_s = t.elapsed().as_secs_f64();
     let t = std::time::Instant::now();
     let all: Vec<&TrainingObject> = objects.iter().collect();
@@ -160,6 +192,9 @@ fn point_files(datasets: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     for d in datasets {
         let dir = d.join("points");
+        if !dir.exists() && d.join("meshes").is_dir() {
+            continue;
+        }
         let mut here: Vec<PathBuf> = std::fs::read_dir(&dir)
             .with_context(|| {
                 format!(
@@ -186,18 +221,128 @@ fn point_files(datasets: &[PathBuf]) -> Result<Vec<PathBuf>> {
     Ok(files)
 }
 
-fn check_unique_names(objects: &[TrainingObject], files: &[PathBuf]) -> Result<()> {
+fn check_unique_names(objects: &[TrainingObject], sources: &[Source]) -> Result<()> {
     for (i, a) in objects.iter().enumerate() {
         if let Some(j) = objects[..i].iter().position(|b| b.name == a.name) {
             bail!(
                 "two training objects named `{}`: {} and {}; leave-one-object-out needs unique names",
                 a.name,
-                files[j].display(),
-                files[i].display()
+                sources[j].describe(),
+                sources[i].describe()
             );
         }
     }
     Ok(())
+}
+
+/// Where a training object comes from.
+enum Source {
+    /// A gaze-point file with a flag column.
+    Points(PathBuf),
+    /// A mesh and its per-vertex truth (a dataset's meshes/ + truth/).
+    MeshTruth {
+        name: String,
+        mesh: PathBuf,
+        truth: PathBuf,
+    },
+    /// A study's rendered mesh and its fixation density.
+    StudyMesh {
+        name: String,
+        stimulus: PathBuf,
+        density: PathBuf,
+    },
+}
+
+impl Source {
+    fn name(&self) -> String {
+        match self {
+            Source::Points(p) => object_name(p),
+            Source::MeshTruth { name, .. } | Source::StudyMesh { name, .. } => name.clone(),
+        }
+    }
+
+    fn describe(&self) -> String {
+        match self {
+            Source::Points(p) => p.display().to_string(),
+            Source::MeshTruth { mesh, truth, .. } => {
+                format!("{} with {}", mesh.display(), truth.display())
+            }
+            Source::StudyMesh { density, .. } => density.display().to_string(),
+        }
+    }
+
+    fn object(&self, protocol: &Protocol, top_fraction: f64) -> Result<TrainingObject> {
+        let hash = |p: &Path| -> Result<String> { Ok(InputFile::hash(p)?.sha256) };
+        match self {
+            Source::Points(p) => training_object(p, protocol).map_err(anyhow::Error::msg),
+            Source::MeshTruth { name, mesh, truth } => {
+                let (m, _) = load_mesh(mesh)?;
+                let t = load_ground_truth(truth, m.positions.len(), top_fraction)?;
+                let values: Vec<f64> = match t {
+                    GroundTruth::VertexMap(map) => map.values,
+                    GroundTruth::Fixations(f) => {
+                        let mut counts = vec![0.0; m.positions.len()];
+                        for x in &f.fixations {
+                            counts[x.vertex] += 1.0;
+                        }
+                        counts
+                    }
+                };
+                let sha = sha256_hex(format!("{} {}", hash(mesh)?, hash(truth)?).as_bytes());
+                training_object_from_map(name, sha, &m, &values, top_fraction, protocol)
+                    .map_err(anyhow::Error::msg)
+            }
+            Source::StudyMesh {
+                name,
+                stimulus,
+                density,
+            } => {
+                let stim = load_stimulus(stimulus, None).map_err(anyhow::Error::msg)?;
+                let values = read_density(density, stim.mesh.positions.len())?;
+                let sha = sha256_hex(format!("{} {}", stim.mesh_sha256, hash(density)?).as_bytes());
+                training_object_from_map(name, sha, &stim.mesh, &values, top_fraction, protocol)
+                    .map_err(anyhow::Error::msg)
+            }
+        }
+    }
+}
+
+/// Every mesh of a study output folder with a truth/<mesh>/density.csv, in name order.
+fn study_sources(out: &Path) -> Result<Vec<Source>> {
+    let truth = out.join("truth");
+    let mut dirs: Vec<PathBuf> = std::fs::read_dir(&truth)
+        .with_context(|| {
+            format!(
+                "cannot read {} (is {} a study output folder?)",
+                truth.display(),
+                out.display()
+            )
+        })?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.join("density.csv").is_file())
+        .collect();
+    dirs.sort();
+    if dirs.is_empty() {
+        bail!(
+            "{}: no truth/<mesh>/density.csv yet; run `meshgaze study run` first",
+            out.display()
+        );
+    }
+    Ok(dirs
+        .into_iter()
+        .map(|d| {
+            let name = d
+                .file_name()
+                .unwrap_or_default()
+                .to_string_lossy()
+                .to_string();
+            Source::StudyMesh {
+                stimulus: out.join("stimuli").join(&name),
+                density: d.join("density.csv"),
+                name,
+            }
+        })
+        .collect())
 }
 
 /// The meshes with per-vertex truth of every dataset that has `meshes/` and `truth/`.

@@ -106,6 +106,45 @@ pub fn training_object(path: &Path, protocol: &Protocol) -> Result<TrainingObjec
     })
 }
 
+/// A mesh with a per-vertex human map as a training object: its vertices with vertex
+/// normals, flagged when among the `top_fraction` highest values (never where the value is
+/// 0: an unlooked-at vertex is not a positive however few vertices were looked at).
+/// `sha256` names the inputs (e.g. of the mesh and the truth file together).
+pub fn training_object_from_map(
+    name: &str,
+    sha256: String,
+    mesh: &crate::mesh::Mesh,
+    values: &[f64],
+    top_fraction: f64,
+    protocol: &Protocol,
+) -> Result<TrainingObject, String> {
+    if values.len() != mesh.positions.len() {
+        return Err(format!(
+            "{name}: {} values for {} vertices",
+            values.len(),
+            mesh.positions.len()
+        ));
+    }
+    let points = SurfacePoints::of_mesh(mesh);
+    let features = point_features(&points, protocol).map_err(|e| format!("{name}: {e}"))?;
+    let mut sorted: Vec<f64> = values.to_vec();
+    sorted.sort_by(|a, b| b.total_cmp(a));
+    let k = ((top_fraction * values.len() as f64).round() as usize).clamp(1, values.len());
+    let threshold = sorted[k - 1];
+    let labels: Vec<bool> = values.iter().map(|&v| v > 0.0 && v >= threshold).collect();
+    if !labels.iter().any(|&b| b) {
+        return Err(format!(
+            "{name}: no vertex has a positive value to learn from"
+        ));
+    }
+    Ok(TrainingObject {
+        name: name.to_string(),
+        sha256,
+        features,
+        labels,
+    })
+}
+
 /// `bunny` for `points/bunny.txt.gz`.
 pub fn object_name(path: &Path) -> String {
     let file = path.file_name().unwrap_or_default().to_string_lossy();

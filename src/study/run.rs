@@ -693,7 +693,8 @@ fn score_step(
 }
 
 /// The `density` column of a truth folder's density.csv, one value per vertex.
-fn read_density(path: &Path, n: usize) -> Result<Vec<f64>> {
+/// The `density` column of a truth folder's density.csv, one value per vertex.
+pub fn read_density(path: &Path, n: usize) -> Result<Vec<f64>> {
     let mut r =
         csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
     let col = r
