@@ -8,6 +8,7 @@ use meshgaze::gaze_model::surface_points::read_gaze_points;
 use meshgaze::gaze_model::view_visibility::view_exposure;
 use meshgaze::gaze_model::GazeModel;
 use meshgaze::mesh::geometry::BoundingBox;
+use meshgaze::mesh::sampling::Sampling;
 use meshgaze::mesh::{load_mesh, LoadReport, Mesh};
 use meshgaze::provenance::InputFile;
 use meshgaze::saliency::map_file::{compute_and_write_map, output_prefix, MapOutputs};
@@ -98,6 +99,11 @@ pub struct SmsArgs {
     /// Random surface samples n.
     #[arg(long, default_value_t = 5000)]
     pub samples: usize,
+    /// Sample placement: uniform random points by area (the paper, §3.2) or Poisson-disk
+    /// (4n uniform candidates thinned to n by weighted sample elimination, Yuksel 2015; the
+    /// paper's future work) [not in the paper].
+    #[arg(long, value_enum, default_value_t = Sampling::Uniform)]
+    pub sampling: Sampling,
     /// Seed of the surface sampling; same mesh + parameters + seed = same output bytes.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -153,6 +159,7 @@ pub struct SmsArgs {
 impl SmsArgs {
     pub fn params(&self) -> SmsParams {
         SmsParams {
+            sampling: self.sampling,
             samples: self.samples,
             seed: self.seed,
             descriptor: DescriptorParams {

@@ -17,7 +17,7 @@ use super::truncated_power::{
     principal_eigenpair, truncated_power, EigenReport, PowerParams, TruncatedPowerReport,
 };
 use crate::mesh::geometry::{BoundingBox, Normalization};
-use crate::mesh::sampling::sample_surface;
+use crate::mesh::sampling::{sample_surface_with, Sampling};
 use crate::mesh::Mesh;
 use crate::progress::Progress;
 use crate::saliency::sms::descriptors::{
@@ -52,6 +52,8 @@ pub struct SmsParams {
     pub interpolation: InterpolationKind,
     pub bounding_box: BoundingBox,
     pub power: PowerParams,
+    /// Uniform random points (the paper) or Poisson-disk (its future work, §6).
+    pub sampling: Sampling,
 }
 
 impl Default for SmsParams {
@@ -67,6 +69,7 @@ impl Default for SmsParams {
             interpolation: InterpolationKind::Normalized,
             bounding_box: BoundingBox::Oriented,
             power: PowerParams::default(),
+            sampling: Sampling::Uniform,
         }
     }
 }
@@ -176,7 +179,7 @@ struct StageA {
 fn stage_a(mesh: &Mesh, params: &SmsParams, progress: &dyn Progress) -> Result<StageA, String> {
     let normalization = Normalization::of_mesh(mesh, params.bounding_box);
     let normalized = normalization.normalized_mesh(mesh);
-    let samples = sample_surface(&normalized, params.samples, params.seed);
+    let samples = sample_surface_with(&normalized, params.samples, params.seed, params.sampling);
     if samples.is_empty() {
         return Err("the mesh has zero surface area: nothing to sample".into());
     }
