@@ -13,7 +13,7 @@ use meshgaze::mesh::{load_mesh, LoadReport, Mesh};
 use meshgaze::provenance::InputFile;
 use meshgaze::saliency::map_file::{compute_and_write_map, output_prefix, MapOutputs};
 use meshgaze::saliency::sms::descriptors::{
-    DescriptorNormalization, DescriptorParams, GridParams, ShellWeight,
+    DescriptorNormalization, DescriptorParams, GridParams, QuadratureRule, ShellWeight,
 };
 use meshgaze::saliency::sms::gaussian_interpolation::min_max_normalize;
 use meshgaze::saliency::sms::gaussian_interpolation::InterpolationKind;
@@ -132,6 +132,11 @@ pub struct SmsArgs {
     /// paper; 24 keeps the rotation error of descriptors under 1e-3].
     #[arg(long, default_value_t = 24)]
     pub quadrature_rings: usize,
+    /// Rings per shell: adaptive (as many as a shell of that radius can carry detail on the
+    /// grid, at most --quadrature-rings; docs/sms.md gives the measured error) or fixed
+    /// (--quadrature-rings on every shell) [not in the paper].
+    #[arg(long, value_enum, default_value_t = QuadratureRule::Adaptive)]
+    pub quadrature: QuadratureRule,
     /// Shell weighting before the transform [not in the paper; ShapeSPH: area].
     #[arg(long, value_enum, default_value_t = ShellWeight::Area)]
     pub shell_weight: ShellWeight,
@@ -167,6 +172,7 @@ impl SmsArgs {
                 shells: self.shells,
                 bands: self.bands,
                 quadrature_rings: self.quadrature_rings,
+                quadrature: self.quadrature,
                 shell_weight: self.shell_weight,
                 normalization: self.descriptor_norm,
             },

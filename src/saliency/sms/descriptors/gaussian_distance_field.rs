@@ -22,6 +22,12 @@ use crate::mesh::Mesh;
 pub trait GaussianField: Sync {
     fn value(&self, p: DVec3) -> f32;
 
+    /// The shortest length over which the field can change (a grid's voxel size), or None
+    /// when it has no such floor (the exact field).
+    fn detail_length(&self) -> Option<f64> {
+        None
+    }
+
     /// Values at `center + radius * d` for each unit direction `d`. The grid overrides this
     /// with a faster path; the result must equal calling `value` at each point.
     fn values_on_sphere(
@@ -158,6 +164,10 @@ impl GridField {
 impl GaussianField for GridField {
     fn value(&self, p: DVec3) -> f32 {
         self.trilinear(((p - self.origin) / self.h - DVec3::splat(0.5)).as_vec3())
+    }
+
+    fn detail_length(&self) -> Option<f64> {
+        Some(self.h)
     }
 
     fn values_on_sphere(

@@ -30,6 +30,20 @@ pub enum DescriptorNormalization {
     Unit,
 }
 
+/// How many quadrature rings each shell gets.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum QuadratureRule {
+    /// `quadrature_rings` on every shell.
+    Fixed,
+    /// As many rings as the shell can carry detail: a shell of radius r on a field with
+    /// voxel size h varies at most about πr/h times around, and R Gauss–Legendre rings
+    /// integrate Y_l (l < bands) times that exactly when 2R − 1 ≥ bands − 1 + πr/h; so
+    /// R = clamp(⌈(bands + πr/h) / 2⌉, bands, quadrature_rings). Small shells, which are most
+    /// of them, need far fewer than the largest (exact field: always `quadrature_rings`).
+    Adaptive,
+}
+
 #[derive(Debug, Clone, Serialize)]
 pub struct DescriptorParams {
     /// Ball radii in normalized units (paper: 0.02, 0.04, 0.06, 0.08, 0.10).
@@ -43,6 +57,7 @@ pub struct DescriptorParams {
     /// (aliasing of high angular frequencies) is 1.7e-3 relative with 16 rings, 5.5e-4 with
     /// 24 and 2.4e-4 with 32; 24 keeps it under 1e-3 for 0.4 s of descriptors.
     pub quadrature_rings: usize,
+    pub quadrature: QuadratureRule,
     pub shell_weight: ShellWeight,
     pub normalization: DescriptorNormalization,
 }
@@ -54,6 +69,7 @@ impl Default for DescriptorParams {
             shells: 8,
             bands: 8,
             quadrature_rings: 24,
+            quadrature: QuadratureRule::Adaptive,
             shell_weight: ShellWeight::Area,
             normalization: DescriptorNormalization::Raw,
         }
@@ -76,6 +92,19 @@ impl DescriptorParams {
 
     pub fn shell_radius(&self, scale: f64, shell: usize) -> f64 {
         (shell as f64 + 0.5) / self.shells as f64 * scale
+    }
+
+    /// Quadrature rings of a shell of `radius` on a field whose detail length is `detail`.
+    pub fn rings_for(&self, radius: f64, detail: Option<f64>) -> usize {
+        match (self.quadrature, detail) {
+            (QuadratureRule::Adaptive, Some(h)) if h > 0.0 => {
+                let needed =
+                    ((self.bands as f64 + 2.0 * std::f64::consts::PI * radius / h) / 2.0).ceil();
+                (needed as usize)
+                    .clamp(self.bands.min(self.quadrature_rings), self.quadrature_rings)
+            }
+            _ => self.quadrature_rings,
+        }
     }
 }
 
@@ -212,19 +241,45 @@ pub fn compute_descriptors<F: GaussianField>(
     params: &DescriptorParams,
     progress: &(dyn Fn(usize) + Sync),
 ) -> Descriptors {
-    let projector = Projector::new(params.quadrature_rings, params.bands);
+    // One projector per distinct ring count, and each shell's (scale-major) index into them.
+    let detail = field.detail_length();
+    let mut ring_counts: Vec<usize> = Vec::new();
+    let mut shell_projector = Vec::with_capacity(params.scales.len() * params.shells);
+    for &scale in &params.scales {
+        for shell in 0..params.shells {
+            let rings = params.rings_for(params.shell_radius(scale, shell), detail);
+            let at = match ring_counts.iter().position(|&r| r == rings) {
+                Some(i) => i,
+                None => {
+                    ring_counts.push(rings);
+                    ring_counts.len() - 1
+                }
+            };
+            shell_projector.push(at);
+        }
+    }
+    let projectors: Vec<Projector> = ring_counts
+        .iter()
+        .map(|&r| Projector::new(r, params.bands))
+        .collect();
+    let largest = projectors
+        .iter()
+        .max_by_key(|p| p.directions.len())
+        .expect("at least one shell");
+    let (max_directions, max_moments) = (largest.directions.len(), largest.rings * largest.stride);
+    let shells: Vec<&Projector> = shell_projector.iter().map(|&i| &projectors[i]).collect();
     let dim = params.len();
     let mut data = vec![0.0; centers.len() * dim];
     data.par_chunks_mut(dim)
         .zip(centers.par_iter())
         .for_each_init(
             || Scratch {
-                samples: vec![0f32; projector.directions.len()],
-                moments: vec![0f32; projector.rings * projector.stride],
+                samples: vec![0f32; max_directions],
+                moments: vec![0f32; max_moments],
                 energies: vec![0f64; params.bands],
             },
             |scratch, (row, &center)| {
-                describe_one(field, center, params, &projector, scratch, row);
+                describe_one(field, center, params, &shells, scratch, row);
                 progress(1);
             },
         );
@@ -245,7 +300,7 @@ fn describe_one<F: GaussianField>(
     field: &F,
     center: DVec3,
     params: &DescriptorParams,
-    projector: &Projector,
+    shell_projectors: &[&Projector],
     scratch: &mut Scratch,
     row: &mut [f64],
 ) {
@@ -253,10 +308,12 @@ fn describe_one<F: GaussianField>(
     for (k, &scale) in params.scales.iter().enumerate() {
         let block = &mut row[k * per_scale..(k + 1) * per_scale];
         for shell in 0..params.shells {
+            let projector = shell_projectors[k * params.shells + shell];
             let radius = params.shell_radius(scale, shell);
             let samples = &mut scratch.samples[..projector.directions.len()];
             field.values_on_sphere(center, radius, &projector.directions, samples);
-            projector.band_energies(samples, &mut scratch.moments, &mut scratch.energies);
+            let moments = &mut scratch.moments[..projector.rings * projector.stride];
+            projector.band_energies(samples, moments, &mut scratch.energies);
             let weight = match params.shell_weight {
                 ShellWeight::Area => radius * (4.0 * std::f64::consts::PI).sqrt(),
                 ShellWeight::None => 1.0,

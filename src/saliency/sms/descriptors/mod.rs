@@ -5,5 +5,6 @@ pub mod spherical_harmonics;
 
 pub use gaussian_distance_field::{ExactField, GaussianField, GridField, GridParams};
 pub use harmonic_shape_descriptor::{
-    compute_descriptors, DescriptorNormalization, DescriptorParams, Descriptors, ShellWeight,
+    compute_descriptors, DescriptorNormalization, DescriptorParams, Descriptors, QuadratureRule,
+    ShellWeight,
 };
