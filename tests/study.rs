@@ -148,6 +148,18 @@ fn a_playlist_study_runs_resumes_shards_and_refuses_a_changed_mesh() {
     );
     let scores = read(dir.join("study/scores.csv"));
     assert!(String::from_utf8_lossy(&scores).lines().count() > 3 * 21);
+    // Every map is also scored with the never-shown vertices left out of the negatives, and
+    // the stimulus shows enough of each mesh that this is a number.
+    let shown: Vec<String> = String::from_utf8_lossy(&scores)
+        .lines()
+        .filter(|l| l.contains(",auc_judd_visible,0,"))
+        .map(str::to_string)
+        .collect();
+    assert!(shown.len() >= 3, "{shown:?}");
+    for l in &shown {
+        let v: f64 = l.rsplit(',').next().unwrap().parse().unwrap();
+        assert!((0.0..=1.0).contains(&v), "{l}");
+    }
 
     // The report: every mesh linked to its own page, the mean curve with the chance band,
     // data quality for each of the 8 subjects; study.json hashes every mesh and recording.
@@ -156,6 +168,7 @@ fn a_playlist_study_runs_resumes_shards_and_refuses_a_changed_mesh() {
         assert!(report.contains(&format!("href=\"report/{m}.html\"")), "{m}");
         let page = String::from_utf8(read(dir.join(format!("study/report/{m}.html")))).unwrap();
         assert!(page.contains("chance there: mean [95%]"), "{m}");
+        assert!(page.contains("shown only"), "{m}");
         assert_eq!(
             page.matches("<img alt=").count(),
             2 + 2 * 2,

@@ -336,13 +336,14 @@ fn maps_section(r: &ReportInputs) -> Result<String> {
 /// The score table and the charts.
 fn scores_section(r: &ReportInputs) -> Result<String> {
     let mut html = String::new();
-    html += "<h2>Scores</h2><table><tr><th>map</th><th>AUC-Judd σ=0</th><th>AUC-Judd peak</th><th>at σ<sub>b</sub></th><th>chance there: mean [95%]</th><th>LCC σ=0</th><th>LCC peak</th><th>NSS σ=0</th><th>Gini</th></tr>";
+    html += "<h2>Scores</h2><table><tr><th>map</th><th>AUC-Judd σ=0</th><th>shown only σ=0</th><th>AUC-Judd peak</th><th>at σ<sub>b</sub></th><th>chance there: mean [95%]</th><th>LCC σ=0</th><th>LCC peak</th><th>NSS σ=0</th><th>Gini</th></tr>";
     for m in &r.score.summaries {
         let _ = write!(
             html,
-            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{} [{}, {}]</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{:.2}</td><td>{} [{}, {}]</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             esc(&m.method),
             fmt3(m.auc_judd_unblurred),
+            fmt3(m.auc_judd_visible_unblurred),
             fmt3(m.auc_judd_peak),
             m.auc_judd_peak_blur,
             fmt3(m.chance_auc_judd_at_peak),
@@ -356,13 +357,13 @@ fn scores_section(r: &ReportInputs) -> Result<String> {
     }
     let _ = write!(
         html,
-        "<tr><td>human (split-half, {} splits)</td><td>{}</td><td>{}</td><td>{:.2}</td><td colspan=\"5\"></td></tr></table>",
+        "<tr><td>human (split-half, {} splits)</td><td>{}</td><td></td><td>{}</td><td>{:.2}</td><td colspan=\"5\"></td></tr></table>",
         r.truth.sidecar.human_splits,
         fmt3(r.truth.sidecar.human_auc_judd_unblurred),
         fmt3(r.truth.sidecar.human_auc_judd_peak),
         r.truth.sidecar.human_auc_judd_peak_blur
     );
-    html += "<p>AUC-Judd: fixated vertices against all others; blurring the saliency map over σ<sub>b</sub> = 0–0.2 (normalized units, half the principal-axes box diagonal = 1) as in the paper's Fig. 6. The grey band holds 95% of 20 seeded random maps blurred the same way (dashed: their mean); the human line is the split-half ceiling: one half of the subjects predicting the other.</p><div class=\"grid\" style=\"grid-template-columns: 1fr 1fr\">";
+    html += "<p>AUC-Judd: fixated vertices against all others (\"shown only\": against the vertices some hold view shows, since nobody could look at the rest); blurring the saliency map over σ<sub>b</sub> = 0–0.2 (normalized units, half the principal-axes box diagonal = 1) as in the paper's Fig. 6. The grey band holds 95% of 20 seeded random maps blurred the same way (dashed: their mean); the human line is the split-half ceiling: one half of the subjects predicting the other.</p><div class=\"grid\" style=\"grid-template-columns: 1fr 1fr\">";
     for p in r.plots {
         let _ = write!(
             html,

@@ -77,13 +77,14 @@ pub fn write_mesh_page(dir: &Path, page: &MeshPage) -> Result<PathBuf> {
 }
 
 fn summary_table(score: &MeshScore) -> String {
-    let mut t = String::from("<h2>Scores</h2><table><tr><th>method</th><th>AUC-Judd σ<sub>b</sub>=0</th><th>AUC-Judd peak (σ<sub>b</sub>)</th><th>chance there: mean [95%]</th><th>LCC σ<sub>b</sub>=0</th><th>NSS σ<sub>b</sub>=0</th><th>Gini</th></tr>");
+    let mut t = String::from("<h2>Scores</h2><table><tr><th>method</th><th>AUC-Judd σ<sub>b</sub>=0</th><th>shown only σ<sub>b</sub>=0</th><th>AUC-Judd peak (σ<sub>b</sub>)</th><th>chance there: mean [95%]</th><th>LCC σ<sub>b</sub>=0</th><th>NSS σ<sub>b</sub>=0</th><th>Gini</th></tr>");
     for s in &score.summaries {
         let _ = write!(
             t,
-            "<tr><td>{}</td><td>{}</td><td>{} ({:.2})</td><td>{} [{}, {}]</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td>{}</td><td>{}</td><td>{}</td><td>{} ({:.2})</td><td>{} [{}, {}]</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             esc(&s.method),
             fmt3(s.auc_judd_unblurred),
+            fmt3(s.auc_judd_visible_unblurred),
             fmt3(s.auc_judd_peak),
             s.auc_judd_peak_blur,
             fmt3(s.chance_auc_judd_at_peak),
