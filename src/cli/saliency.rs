@@ -80,12 +80,7 @@ impl SaliencyArgs {
                 if self.method != Method::Gaze {
                     bail!("--model is for --method gaze");
                 }
-                let text = std::fs::read_to_string(path)
-                    .with_context(|| format!("cannot read {}", path.display()))?;
-                Some(
-                    GazeModel::from_json(&text, &path.display().to_string())
-                        .map_err(anyhow::Error::msg)?,
-                )
+                Some(GazeModel::load(path).map_err(anyhow::Error::msg)?)
             }
             None => None,
         };
@@ -295,14 +290,7 @@ fn point_cloud_saliency(args: &SaliencyArgs) -> Result<()> {
     let t = std::time::Instant::now();
     let mut values = match args.method {
         Method::Gaze => {
-            let builtin;
-            let model = match &viewing.model {
-                Some(m) => m,
-                None => {
-                    builtin = GazeModel::builtin();
-                    &builtin
-                }
-            };
+            let model = viewing.gaze_model();
             model
                 .predict(&points, &viewing.protocol)
                 .map_err(|e| anyhow::anyhow!("{}: {e}", args.mesh.display()))?

@@ -99,14 +99,7 @@ pub struct ScoreArgs {
 
 /// Refuses to score the gaze model on an object it was trained on.
 fn refuse_training_object(viewing: &Viewing, mesh_name: &str) -> Result<()> {
-    let builtin;
-    let model = match &viewing.model {
-        Some(m) => m,
-        None => {
-            builtin = GazeModel::builtin();
-            &builtin
-        }
-    };
+    let model = viewing.gaze_model();
     if model.training.objects.iter().any(|o| o.name == mesh_name) {
         bail!(
             "{mesh_name}: the gaze model was trained on an object named `{mesh_name}`, so its score here would be a training-set figure; `meshgaze train --cv` gives leave-one-object-out figures, or pass --model trained without it"
@@ -149,14 +142,7 @@ pub fn run(args: ScoreArgs) -> Result<()> {
     let bars = Bars::new(args.quiet);
     let (protocol, _, _) = Protocol::load_or_builtin(args.protocol.as_deref())?;
     let model = match &args.model {
-        Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .with_context(|| format!("cannot read {}", path.display()))?;
-            Some(
-                GazeModel::from_json(&text, &path.display().to_string())
-                    .map_err(anyhow::Error::msg)?,
-            )
-        }
+        Some(path) => Some(GazeModel::load(path).map_err(anyhow::Error::msg)?),
         None => None,
     };
     let viewing = Viewing { protocol, model };

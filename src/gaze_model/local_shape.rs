@@ -103,18 +103,7 @@ mod tests {
     use super::*;
 
     fn sphere(n: usize) -> SurfacePoints {
-        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
-        let positions: Vec<DVec3> = (0..n)
-            .map(|i| {
-                let y = 1.0 - 2.0 * (i as f64 + 0.5) / n as f64;
-                let r = (1.0 - y * y).sqrt();
-                DVec3::new(
-                    r * (golden * i as f64).cos(),
-                    y,
-                    r * (golden * i as f64).sin(),
-                )
-            })
-            .collect();
+        let positions = crate::gaze_model::view_visibility::fibonacci_directions(n);
         SurfacePoints {
             normals: positions.clone(),
             positions,

@@ -236,6 +236,13 @@ impl GazeModel {
         Ok(model)
     }
 
+    /// Reads a model file written by `meshgaze train`.
+    pub fn load(path: &Path) -> Result<GazeModel, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        GazeModel::from_json(&text, &path.display().to_string())
+    }
+
     pub fn builtin() -> GazeModel {
         GazeModel::from_json(BUILTIN_MODEL, "built-in model").expect("the built-in model loads")
     }

@@ -71,6 +71,14 @@ impl Viewing {
             model: None,
         }
     }
+
+    /// The gaze model to use: the given one, or the built-in one (parsed only when asked).
+    pub fn gaze_model(&self) -> std::borrow::Cow<'_, GazeModel> {
+        match &self.model {
+            Some(m) => std::borrow::Cow::Borrowed(m),
+            None => std::borrow::Cow::Owned(GazeModel::builtin()),
+        }
+    }
 }
 
 /// Computes `method` on `mesh` with its default parameters (SMS with `sms`), shown as the
@@ -136,14 +144,7 @@ pub fn compute_saliency_viewed(
         ),
         Method::Gaze => {
             progress.start("gaze model", 0);
-            let builtin;
-            let m = match &viewing.model {
-                Some(m) => m,
-                None => {
-                    builtin = GazeModel::builtin();
-                    &builtin
-                }
-            };
+            let m = viewing.gaze_model();
             let mut v = m.predict(&SurfacePoints::of_mesh(mesh), &viewing.protocol)?;
             super::sms::gaussian_interpolation::min_max_normalize(&mut v);
             progress.finish();
