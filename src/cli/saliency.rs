@@ -18,7 +18,7 @@ use meshgaze::saliency::sms::descriptors::{
 use meshgaze::saliency::sms::gaussian_interpolation::min_max_normalize;
 use meshgaze::saliency::sms::gaussian_interpolation::InterpolationKind;
 use meshgaze::saliency::sms::truncated_power::PowerParams;
-use meshgaze::saliency::{FieldKind, Method, SmsParams, Viewing};
+use meshgaze::saliency::{FieldKind, Method, RarityParams, SmsParams, Viewing};
 use meshgaze::stimulus::protocol::Protocol;
 
 use super::progress_bar::Bars;
@@ -33,7 +33,8 @@ use super::progress_bar::Bars;
 ///
 /// Methods: sms (sparse metric-based saliency, Hu et al., Neurocomputing 2020; the default),
 /// ms (Lee et al. 2005 mesh saliency), mc (magnitude of mean curvature), si (Song et al.
-/// 2014), and three that know how the mesh is shown: up (height along the protocol's up
+/// 2014), the global-rarity methods sri (Leifman et al. 2012), gr (Wu et al. 2013) and mr
+/// (Tao et al. 2015) with --set for their parameters (docs/baselines.md), and three that know how the mesh is shown: up (height along the protocol's up
 /// axis), centre (closeness to the screen centre over the hold views that show a vertex) and
 /// gaze (the learned gaze model: built-in, or --model from `meshgaze train`; docs/gaze_model.md).
 /// SMS defaults are the paper's; choices the paper leaves open have flags too (docs/sms.md).
@@ -67,6 +68,11 @@ pub struct SaliencyArgs {
     /// trained on ../shared/data/fixations-vr).
     #[arg(long)]
     pub model: Option<PathBuf>,
+    /// Set a parameter of sri, gr or mr as METHOD.NAME=VALUE (repeatable), e.g.
+    /// `--set sri.most_similar=32 --set gr.radii=[0.1,0.2]`; docs/baselines.md lists every
+    /// parameter, its default and why.
+    #[arg(long = "set", value_name = "METHOD.NAME=VALUE")]
+    pub settings: Vec<String>,
     /// No progress bars.
     #[arg(short, long)]
     pub quiet: bool,
@@ -84,7 +90,14 @@ impl SaliencyArgs {
             }
             None => None,
         };
-        Ok(Viewing { protocol, model })
+        let rarity = RarityParams::default()
+            .with_settings(&self.settings)
+            .map_err(anyhow::Error::msg)?;
+        Ok(Viewing {
+            protocol,
+            model,
+            rarity,
+        })
     }
 }
 

@@ -10,7 +10,7 @@ use meshgaze::mesh::load_mesh;
 use meshgaze::provenance::{InputFile, Provenance};
 use meshgaze::report::score_plots::write_score_plots;
 use meshgaze::saliency::map_file::output_prefix;
-use meshgaze::saliency::{compute_saliency_viewed, Method, SmsParams, Viewing};
+use meshgaze::saliency::{compute_saliency_viewed, Method, RarityParams, SmsParams, Viewing};
 use meshgaze::scoring::dataset::{
     dataset_pairs, mean_summaries, mesh_stem, score_table_markdown, write_score_rows, MeshEntry,
     SCORE_CSV_HEADER,
@@ -95,6 +95,11 @@ pub struct ScoreArgs {
     /// be a training-set figure (use `meshgaze train --cv` for held-out figures).
     #[arg(long)]
     pub model: Option<PathBuf>,
+    /// Set a parameter of sri, gr or mr as METHOD.NAME=VALUE (repeatable), e.g.
+    /// `--set sri.most_similar=32 --set gr.radii=[0.1,0.2]`; docs/baselines.md lists every
+    /// parameter, its default and why.
+    #[arg(long = "set", value_name = "METHOD.NAME=VALUE")]
+    pub settings: Vec<String>,
 }
 
 /// Refuses to score the gaze model on an object it was trained on.
@@ -145,7 +150,14 @@ pub fn run(args: ScoreArgs) -> Result<()> {
         Some(path) => Some(GazeModel::load(path).map_err(anyhow::Error::msg)?),
         None => None,
     };
-    let viewing = Viewing { protocol, model };
+    let rarity = RarityParams::default()
+        .with_settings(&args.settings)
+        .map_err(anyhow::Error::msg)?;
+    let viewing = Viewing {
+        protocol,
+        model,
+        rarity,
+    };
     let mut inputs = Vec::new();
     let mut entries = Vec::new();
     let prefix = output_prefix(&args.output);

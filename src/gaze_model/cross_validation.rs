@@ -61,6 +61,7 @@ pub fn leave_one_object_out(
     let viewing = Viewing {
         protocol: protocol.clone(),
         model: None,
+        rarity: Default::default(),
     };
     let mut rows = Vec::new();
     let mut held_out_maps = Vec::new();

@@ -3,11 +3,13 @@
 //! Readers keep the input vertex order and count exactly, because every per-vertex output
 //! (saliency, ground truth) is indexed by the input file's vertex numbering.
 
+pub mod edge_graph;
 mod error;
 pub mod geometry;
 pub mod mean_curvature;
 mod obj;
 mod off;
+pub mod over_segmentation;
 mod ply;
 mod read;
 pub mod sampling;

@@ -5,6 +5,10 @@ use serde::{Deserialize, Serialize};
 
 use super::lee_mesh_saliency::{lee_mesh_saliency, LeeParams};
 use super::mean_curvature_saliency::mean_curvature_saliency;
+use super::rarity::{
+    global_rarity_saliency, manifold_ranking_saliency, surface_regions_of_interest, GrParams,
+    MrParams, SriParams,
+};
 use super::spectral_irregularity::{spectral_irregularity, SpectralParams};
 use super::view_priors::{centre_prior, up_prior};
 use super::{sparse_metric_saliency, SmsExtras, SmsParams};
@@ -25,6 +29,13 @@ pub enum Method {
     Mc,
     /// Spectral irregularity of Song et al. 2014, on a simplified copy.
     Si,
+    /// Surface regions of interest of Leifman, Shtrom and Tal 2012 (distinctness,
+    /// extremities, association).
+    Sri,
+    /// Mesh saliency with global rarity of Wu et al. 2013 (local contrast + patch rarity).
+    Gr,
+    /// Mesh saliency via manifold ranking of unsalient patches, Tao et al. 2015.
+    Mr,
     /// Prior: height along the protocol's up axis.
     Up,
     /// Prior: mean closeness to the screen centre over the hold views showing the vertex.
@@ -40,6 +51,9 @@ impl Method {
             Method::Ms => "ms",
             Method::Mc => "mc",
             Method::Si => "si",
+            Method::Sri => "sri",
+            Method::Gr => "gr",
+            Method::Mr => "mr",
             Method::Up => "up",
             Method::Centre => "centre",
             Method::Gaze => "gaze",
@@ -54,13 +68,61 @@ pub struct MethodOutput {
     pub seconds: f64,
 }
 
-/// How the mesh is shown and what model predicts gaze: the inputs of the priors and of the
-/// gaze model (the shape methods ignore it).
+/// How the mesh is shown and what model predicts gaze (the inputs of the priors and of the
+/// gaze model), and the parameters of the global-rarity competitors.
 #[derive(Debug, Clone)]
 pub struct Viewing {
     pub protocol: Protocol,
     /// None: the built-in model.
     pub model: Option<GazeModel>,
+    pub rarity: RarityParams,
+}
+
+/// Parameters of SRI, GR and MR (each defaults to docs/baselines.md's choices).
+#[derive(Debug, Clone, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct RarityParams {
+    pub sri: SriParams,
+    pub gr: GrParams,
+    pub mr: MrParams,
+}
+
+impl RarityParams {
+    /// Applies `method.name=value` settings (e.g. `sri.most_similar=32`, `gr.radii=[0.1,0.2]`);
+    /// the value is JSON, or a bare number or word.
+    pub fn with_settings(&self, settings: &[String]) -> Result<RarityParams, String> {
+        let mut tree = serde_json::to_value(self).map_err(|e| e.to_string())?;
+        for setting in settings {
+            let (key, value) = setting.split_once('=').ok_or_else(|| {
+                format!("--set {setting}: expected METHOD.NAME=VALUE, e.g. sri.most_similar=32")
+            })?;
+            let (method, name) = key.trim().split_once('.').ok_or_else(|| {
+                format!("--set {setting}: the name needs its method, e.g. sri.{key}")
+            })?;
+            let slot = tree
+                .get_mut(method)
+                .ok_or_else(|| format!("--set {setting}: `{method}` is not one of sri, gr, mr"))?
+                .get_mut(name)
+                .ok_or_else(|| {
+                    let names: Vec<String> = serde_json::to_value(self)
+                        .ok()
+                        .and_then(|t| {
+                            t.get(method)
+                                .and_then(|m| m.as_object())
+                                .map(|o| o.keys().cloned().collect())
+                        })
+                        .unwrap_or_default();
+                    format!(
+                        "--set {setting}: {method} has no parameter `{name}`; it has {}",
+                        names.join(", ")
+                    )
+                })?;
+            let value = value.trim();
+            *slot = serde_json::from_str(value)
+                .unwrap_or_else(|_| serde_json::Value::String(value.to_string()));
+        }
+        serde_json::from_value(tree).map_err(|e| format!("--set: {e}"))
+    }
 }
 
 impl Viewing {
@@ -69,6 +131,7 @@ impl Viewing {
         Viewing {
             protocol: Protocol::builtin().0,
             model: None,
+            rarity: RarityParams::default(),
         }
     }
 
@@ -129,6 +192,27 @@ pub fn compute_saliency_viewed(
             let (v, r) = spectral_irregularity(mesh, &params)?;
             progress.finish();
             (v, serde_json::to_value((&params, &r)))
+        }
+        Method::Sri => {
+            progress.start("SRI (Leifman 2012)", 0);
+            let params = &viewing.rarity.sri;
+            let (v, r) = surface_regions_of_interest(mesh, params)?;
+            progress.finish();
+            (v, serde_json::to_value((params, &r)))
+        }
+        Method::Gr => {
+            progress.start("GR (Wu 2013)", 0);
+            let params = &viewing.rarity.gr;
+            let (v, r) = global_rarity_saliency(mesh, params)?;
+            progress.finish();
+            (v, serde_json::to_value((params, &r)))
+        }
+        Method::Mr => {
+            progress.start("MR (Tao 2015)", 0);
+            let params = &viewing.rarity.mr;
+            let (v, r) = manifold_ranking_saliency(mesh, params)?;
+            progress.finish();
+            (v, serde_json::to_value((params, &r)))
         }
         Method::Up => (
             up_prior(mesh, &viewing.protocol),

@@ -3,11 +3,14 @@ pub mod lee_mesh_saliency;
 pub mod map_file;
 pub mod mean_curvature_saliency;
 pub mod method;
+pub mod rarity;
 pub mod sms;
 pub mod spectral_irregularity;
 pub mod view_priors;
 
-pub use method::{compute_saliency, compute_saliency_viewed, Method, MethodOutput, Viewing};
+pub use method::{
+    compute_saliency, compute_saliency_viewed, Method, MethodOutput, RarityParams, Viewing,
+};
 pub use sms::sparse_metric_saliency::{
     descriptors_at, sparse_metric_saliency, FieldKind, SmsExtras, SmsParams, SmsResult,
 };

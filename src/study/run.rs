@@ -571,6 +571,7 @@ fn saliency_step(
             &crate::saliency::Viewing {
                 protocol: study.protocol.clone(),
                 model: None,
+                rarity: Default::default(),
             },
             MapOutputs::default(),
             &prefix,

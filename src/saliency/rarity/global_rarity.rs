@@ -1,0 +1,166 @@
+//! "GR": mesh saliency with global rarity (Wu, Shen, Zhu, Liu, Graphical Models 2013), as
+//! reconstructed in docs/baselines.md (no public code exists; choices are parameters):
+//! 1. per-vertex local shape: Zernike coefficients of the height map over the tangent plane at
+//!    several radii;
+//! 2. local contrast at each radius r: the Gaussian-weighted (σ = r, cut at 2r) area-weighted
+//!    mean descriptor difference between a vertex and its surroundings, scaled to [0, 1],
+//!    averaged over radii;
+//! 3. global rarity: over-segment into patches, describe each by its vertices' mean
+//!    descriptor, and rate it by its area-weighted mean descriptor distance to every patch of
+//!    the mesh (a shape that covers much of the surface is common, hence not rare);
+//! 4. S = w·local + (1 − w)·rarity, both scaled to [0, 1].
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use super::working_copy::{WorkingCopy, WorkingCopyReport};
+use super::zernike_height_map::zernike_descriptors;
+use crate::mesh::over_segmentation::{over_segment, Patches};
+use crate::mesh::Mesh;
+
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct GrParams {
+    /// Vertices of the simplified working copy.
+    pub vertices: usize,
+    /// Height-map radii (normalized units: half the bounding-box diagonal = 1).
+    pub radii: Vec<f64>,
+    /// Highest Zernike order (8: 25 coefficients per radius).
+    pub order: usize,
+    /// Patches of the over-segmentation the rarity is measured over.
+    pub patches: usize,
+    /// w: weight of local contrast against global rarity.
+    pub local_weight: f64,
+    pub seed: u64,
+}
+
+impl Default for GrParams {
+    fn default() -> Self {
+        GrParams {
+            vertices: 10_000,
+            radii: vec![0.05, 0.1, 0.2],
+            order: 8,
+            patches: 500,
+            local_weight: 0.5,
+            seed: 1,
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct GrReport {
+    pub working_copy: WorkingCopyReport,
+    pub patches: usize,
+    pub descriptor_length: usize,
+}
+
+pub fn global_rarity_saliency(
+    mesh: &Mesh,
+    params: &GrParams,
+) -> Result<(Vec<f64>, GrReport), String> {
+    if params.radii.is_empty() || !(0.0..=1.0).contains(&params.local_weight) {
+        return Err("gr needs at least one radius and local_weight in [0, 1]".into());
+    }
+    let work = WorkingCopy::new(mesh, params.vertices)?;
+    let z = zernike_descriptors(&work, &params.radii, params.order);
+    let per_radius = z[0].len() / params.radii.len();
+    let n = work.len();
+
+    let mut local = vec![0.0; n];
+    for (s, &r) in params.radii.iter().enumerate() {
+        let span = s * per_radius..(s + 1) * per_radius;
+        let mut contrast: Vec<f64> = (0..n)
+            .into_par_iter()
+            .map(|v| {
+                let p = work.mesh.positions[v];
+                let (mut num, mut den) = (0.0, 0.0);
+                for u in work.within(p, 2.0 * r) {
+                    if u == v {
+                        continue;
+                    }
+                    let w = work.areas[u]
+                        * (-(work.mesh.positions[u] - p).length_squared() / (2.0 * r * r)).exp();
+                    num += w * distance(&z[v][span.clone()], &z[u][span.clone()]);
+                    den += w;
+                }
+                if den > 0.0 {
+                    num / den
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        scale_to_unit(&mut contrast);
+        for (acc, c) in local.iter_mut().zip(contrast) {
+            *acc += c / params.radii.len() as f64;
+        }
+    }
+    scale_to_unit(&mut local);
+
+    let patches = over_segment(&work.mesh, &work.graph, params.patches, params.seed);
+    let (patch_desc, patch_area) = patch_descriptors(&work, &patches, &z);
+    let total_area: f64 = patch_area.iter().sum();
+    let mut rarity: Vec<f64> = (0..patches.len())
+        .into_par_iter()
+        .map(|p| {
+            (0..patches.len())
+                .map(|q| patch_area[q] * distance(&patch_desc[p], &patch_desc[q]))
+                .sum::<f64>()
+                / total_area.max(f64::MIN_POSITIVE)
+        })
+        .collect();
+    scale_to_unit(&mut rarity);
+    let saliency: Vec<f64> = (0..n)
+        .map(|v| {
+            let g = rarity[patches.label[v] as usize];
+            params.local_weight * local[v] + (1.0 - params.local_weight) * g
+        })
+        .collect();
+    Ok((
+        work.carry_back(&saliency),
+        GrReport {
+            working_copy: work.report(),
+            patches: patches.len(),
+            descriptor_length: z[0].len(),
+        },
+    ))
+}
+
+/// Each patch's area-weighted mean vertex descriptor and its area.
+pub(super) fn patch_descriptors(
+    work: &WorkingCopy,
+    patches: &Patches,
+    z: &[Vec<f64>],
+) -> (Vec<Vec<f64>>, Vec<f64>) {
+    let dims = z.first().map_or(0, |r| r.len());
+    let mut desc = vec![vec![0.0; dims]; patches.len()];
+    let mut area = vec![0.0; patches.len()];
+    for ((row, &label), &a) in z.iter().zip(&patches.label).zip(&work.areas) {
+        let p = label as usize;
+        area[p] += a;
+        for (d, x) in desc[p].iter_mut().zip(row) {
+            *d += a * x;
+        }
+    }
+    for (d, &a) in desc.iter_mut().zip(&area) {
+        if a > 0.0 {
+            d.iter_mut().for_each(|x| *x /= a);
+        }
+    }
+    (desc, area)
+}
+
+pub(super) fn distance(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y) * (x - y))
+        .sum::<f64>()
+        .sqrt()
+}
+
+/// Divides by the largest value (values are non-negative); all zeros stay zeros.
+pub(super) fn scale_to_unit(values: &mut [f64]) {
+    let max = values.iter().cloned().fold(0.0, f64::max);
+    if max > 0.0 {
+        values.iter_mut().for_each(|v| *v /= max);
+    }
+}

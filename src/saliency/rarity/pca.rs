@@ -1,0 +1,117 @@
+//! Principal component projection of descriptor rows (SRI reduces its spin images this way):
+//! centre the rows, take the covariance's leading eigenvectors (faer, sequential so the
+//! result is the same bytes on any thread count) and project.
+use faer::Mat;
+
+/// The rows projected onto their `dims` leading principal axes (fewer if the rows are
+/// shorter). Each axis's sign is fixed so its largest-magnitude loading is positive.
+pub fn pca_project(rows: &[Vec<f64>], dims: usize) -> Result<Vec<Vec<f64>>, String> {
+    let n = rows.len();
+    let d = rows.first().map_or(0, |r| r.len());
+    if n == 0 || d == 0 {
+        return Ok(vec![Vec::new(); n]);
+    }
+    let mut mean = vec![0.0; d];
+    for r in rows {
+        for (m, x) in mean.iter_mut().zip(r) {
+            *m += x / n as f64;
+        }
+    }
+    let mut cov = Mat::<f64>::zeros(d, d);
+    for r in rows {
+        for i in 0..d {
+            let ci = r[i] - mean[i];
+            if ci == 0.0 {
+                continue;
+            }
+            for j in i..d {
+                cov[(i, j)] += ci * (r[j] - mean[j]);
+            }
+        }
+    }
+    for i in 0..d {
+        for j in 0..i {
+            cov[(i, j)] = cov[(j, i)];
+        }
+    }
+    let (_, basis) = symmetric_eigen(&cov)?;
+    // Ascending eigenvalues: the leading axes are the last columns.
+    let k = dims.min(d);
+    let axes: Vec<Vec<f64>> = (0..k)
+        .map(|c| {
+            let col = d - 1 - c;
+            let mut axis: Vec<f64> = (0..d).map(|i| basis[(i, col)]).collect();
+            let lead = axis
+                .iter()
+                .cloned()
+                .fold(0.0f64, |m, x| if x.abs() > m.abs() { x } else { m });
+            if lead < 0.0 {
+                axis.iter_mut().for_each(|x| *x = -*x);
+            }
+            axis
+        })
+        .collect();
+    Ok(rows
+        .iter()
+        .map(|r| {
+            axes.iter()
+                .map(|a| {
+                    a.iter()
+                        .zip(r)
+                        .zip(&mean)
+                        .map(|((a, x), m)| a * (x - m))
+                        .sum()
+                })
+                .collect()
+        })
+        .collect())
+}
+
+/// Eigenvalues (ascending) and eigenvectors (columns) of a symmetric matrix.
+pub fn symmetric_eigen(m: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>), String> {
+    let d = m.nrows();
+    let mut eigenvalues = faer::diag::Diag::<f64>::zeros(d);
+    let mut basis = Mat::<f64>::zeros(d, d);
+    let par = faer::Par::Seq;
+    let scratch = faer::linalg::evd::self_adjoint_evd_scratch::<f64>(
+        d,
+        faer::linalg::evd::ComputeEigenvectors::Yes,
+        par,
+        Default::default(),
+    );
+    let mut mem = faer::dyn_stack::MemBuffer::new(scratch);
+    faer::linalg::evd::self_adjoint_evd(
+        m.as_ref(),
+        eigenvalues.as_mut(),
+        Some(basis.as_mut()),
+        par,
+        faer::dyn_stack::MemStack::new(&mut mem),
+        Default::default(),
+    )
+    .map_err(|e| format!("the eigendecomposition failed: {e:?}"))?;
+    Ok((
+        (0..d).map(|i| eigenvalues.column_vector()[i]).collect(),
+        basis,
+    ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn points_on_a_line_project_to_their_position_along_it() {
+        let rows: Vec<Vec<f64>> = (0..10)
+            .map(|i| {
+                let t = i as f64 - 4.5;
+                vec![3.0 * t / 5.0, 4.0 * t / 5.0, 7.0]
+            })
+            .collect();
+        let p = pca_project(&rows, 2).unwrap();
+        for (i, r) in p.iter().enumerate() {
+            let t = i as f64 - 4.5;
+            assert!((r[0] - t).abs() < 1e-9, "{r:?}");
+            assert!(r[1].abs() < 1e-9);
+        }
+    }
+}
