@@ -3,16 +3,19 @@
 //! 1. per-vertex local shape: Zernike coefficients of the height map over the tangent plane at
 //!    several radii;
 //! 2. local contrast at each radius r: the Gaussian-weighted (σ = r, cut at 2r) area-weighted
-//!    mean descriptor difference between a vertex and its surroundings, scaled to [0, 1],
-//!    averaged over radii;
+//!    mean descriptor difference between a vertex and its surroundings, averaged over radii;
 //! 3. global rarity: over-segment into patches, describe each by its vertices' mean
 //!    descriptor, and rate it by its area-weighted mean descriptor distance to every patch of
 //!    the mesh (a shape that covers much of the surface is common, hence not rare);
-//! 4. S = w·local + (1 − w)·rarity, both scaled to [0, 1].
+//! 4. S = w·local + (1 − w)·rarity.
+//!
+//! Both terms stay in the descriptor's own units (Zernike moments of heights in units of the
+//! radius) until the final rescale: dividing each by its maximum first would stretch a
+//! featureless shape's numerical noise into a full-range map.
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::working_copy::{WorkingCopy, WorkingCopyReport};
+use super::working_copy::{RawSpread, WorkingCopy, WorkingCopyReport};
 use super::zernike_height_map::zernike_descriptors;
 use crate::mesh::over_segmentation::{over_segment, Patches};
 use crate::mesh::Mesh;
@@ -49,6 +52,8 @@ impl Default for GrParams {
 #[derive(Debug, Clone, Serialize)]
 pub struct GrReport {
     pub working_copy: WorkingCopyReport,
+    /// The map on the working copy before rescaling.
+    pub raw: RawSpread,
     pub patches: usize,
     pub descriptor_length: usize,
 }
@@ -68,7 +73,7 @@ pub fn global_rarity_saliency(
     let mut local = vec![0.0; n];
     for (s, &r) in params.radii.iter().enumerate() {
         let span = s * per_radius..(s + 1) * per_radius;
-        let mut contrast: Vec<f64> = (0..n)
+        let contrast: Vec<f64> = (0..n)
             .into_par_iter()
             .map(|v| {
                 let p = work.mesh.positions[v];
@@ -89,17 +94,15 @@ pub fn global_rarity_saliency(
                 }
             })
             .collect();
-        scale_to_unit(&mut contrast);
         for (acc, c) in local.iter_mut().zip(contrast) {
             *acc += c / params.radii.len() as f64;
         }
     }
-    scale_to_unit(&mut local);
 
     let patches = over_segment(&work.mesh, &work.graph, params.patches, params.seed);
     let (patch_desc, patch_area) = patch_descriptors(&work, &patches, &z);
     let total_area: f64 = patch_area.iter().sum();
-    let mut rarity: Vec<f64> = (0..patches.len())
+    let rarity: Vec<f64> = (0..patches.len())
         .into_par_iter()
         .map(|p| {
             (0..patches.len())
@@ -108,7 +111,6 @@ pub fn global_rarity_saliency(
                 / total_area.max(f64::MIN_POSITIVE)
         })
         .collect();
-    scale_to_unit(&mut rarity);
     let saliency: Vec<f64> = (0..n)
         .map(|v| {
             let g = rarity[patches.label[v] as usize];
@@ -119,6 +121,7 @@ pub fn global_rarity_saliency(
         work.carry_back(&saliency),
         GrReport {
             working_copy: work.report(),
+            raw: RawSpread::of(&saliency, &work.areas),
             patches: patches.len(),
             descriptor_length: z[0].len(),
         },
@@ -155,12 +158,4 @@ pub(super) fn distance(a: &[f64], b: &[f64]) -> f64 {
         .map(|(x, y)| (x - y) * (x - y))
         .sum::<f64>()
         .sqrt()
-}
-
-/// Divides by the largest value (values are non-negative); all zeros stay zeros.
-pub(super) fn scale_to_unit(values: &mut [f64]) {
-    let max = values.iter().cloned().fold(0.0, f64::max);
-    if max > 0.0 {
-        values.iter_mut().for_each(|v| *v /= max);
-    }
 }

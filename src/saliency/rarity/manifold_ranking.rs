@@ -16,7 +16,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::global_rarity::{distance, patch_descriptors};
-use super::working_copy::{WorkingCopy, WorkingCopyReport};
+use super::working_copy::{RawSpread, WorkingCopy, WorkingCopyReport};
 use super::zernike_height_map::zernike_descriptors;
 use crate::mesh::over_segmentation::over_segment;
 use crate::mesh::Mesh;
@@ -39,6 +39,8 @@ pub struct MrParams {
     pub neighbours: usize,
     /// α of manifold ranking (Zhou et al.'s 0.99).
     pub alpha: f64,
+    /// σ of the affinity in descriptor units; 0: the root mean squared neighbour distance.
+    pub sigma: f64,
     pub smoothing_iterations: usize,
     pub seed: u64,
 }
@@ -54,6 +56,7 @@ impl Default for MrParams {
             background_fraction: 0.1,
             neighbours: 10,
             alpha: 0.99,
+            sigma: 0.0,
             smoothing_iterations: 10,
             seed: 1,
         }
@@ -63,6 +66,8 @@ impl Default for MrParams {
 #[derive(Debug, Clone, Serialize)]
 pub struct MrReport {
     pub working_copy: WorkingCopyReport,
+    /// The map on the working copy before rescaling.
+    pub raw: RawSpread,
     pub patches: usize,
     pub background_queries: usize,
     /// Conjugate-gradient iterations of the ranking solve and its final relative residual.
@@ -147,7 +152,11 @@ pub fn manifold_ranking_saliency(
         .collect();
     edges.sort_by_key(|e| (e.0, e.1));
     edges.dedup_by(|x, y| x.0 == y.0 && x.1 == y.1);
-    let sigma2 = edges.iter().map(|e| e.2).sum::<f64>() / edges.len().max(1) as f64;
+    let sigma2 = if params.sigma > 0.0 {
+        params.sigma * params.sigma
+    } else {
+        edges.iter().map(|e| e.2).sum::<f64>() / edges.len().max(1) as f64
+    };
     let mut weights: Vec<Vec<(usize, f64)>> = vec![Vec::new(); p];
     for &(a, b, d2) in &edges {
         let w = if sigma2 > 0.0 {
@@ -188,6 +197,7 @@ pub fn manifold_ranking_saliency(
         work.carry_back(&values),
         MrReport {
             working_copy: work.report(),
+            raw: RawSpread::of(&values, &work.areas),
             patches: p,
             background_queries: queries,
             ranking_iterations: iterations,

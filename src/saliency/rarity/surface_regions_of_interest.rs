@@ -10,8 +10,9 @@
 //!    the geodesic distances that are also local maxima of distance from its centre (tips of
 //!    limbs, ears, tails);
 //! 4. association: foci = the most distinct vertices and the extremities; every vertex gains
-//!    A(v) = max over foci f of value_f · exp(−g(v, f)² / 2σ²), so regions near foci rise;
-//!    S = ½ (D / max D + A).
+//!    A(v) = max over foci f of value_f · exp(−g(v, f)² / 2σ²), so regions near foci rise
+//!    (a distinct focus is worth how far its D stands above the median vertex's, an extremity by how far it reaches past the median
+//!    radius of the embedding); S = ½ (D + A).
 //!
 //! Geodesic distances are coarse: between patch centres along the patch adjacency graph
 //! (never below the straight distance; the straight distance across components).
@@ -21,7 +22,7 @@ use serde::{Deserialize, Serialize};
 
 use super::pca::{pca_project, symmetric_eigen};
 use super::spin_images::spin_images;
-use super::working_copy::{WorkingCopy, WorkingCopyReport};
+use super::working_copy::{RawSpread, WorkingCopy, WorkingCopyReport};
 use crate::gaze_model::view_visibility::fibonacci_directions;
 use crate::mesh::edge_graph::distance_or_euclidean;
 use crate::mesh::over_segmentation::{over_segment, Patches};
@@ -42,6 +43,8 @@ pub struct SriParams {
     pub most_similar: usize,
     /// c: how much geodesic distance discounts a look-alike (Goferman et al.'s 3).
     pub geodesic_weight: f64,
+    /// Spin-image distance (images sum to 1) that counts as "unlike": D = 1 − exp(−d/this).
+    pub distance_scale: f64,
     /// Patches for the coarse geodesic distances and the extremities.
     pub patches: usize,
     /// Vertices whose distinctness is at least this fraction of the largest are foci.
@@ -50,6 +53,9 @@ pub struct SriParams {
     pub association_sigma: f64,
     /// Directions probed to find the embedding's convex hull.
     pub hull_directions: usize,
+    /// An extremity at this multiple of the embedding's median radius (or farther) is a
+    /// focus of full weight; one at the median radius weighs nothing.
+    pub extremity_reach: f64,
     pub seed: u64,
 }
 
@@ -63,10 +69,12 @@ impl Default for SriParams {
             pca_dims: 16,
             most_similar: 64,
             geodesic_weight: 3.0,
+            distance_scale: 0.1,
             patches: 500,
             focus_threshold: 0.8,
             association_sigma: 0.1,
             hull_directions: 2000,
+            extremity_reach: 1.5,
             seed: 1,
         }
     }
@@ -75,6 +83,11 @@ impl Default for SriParams {
 #[derive(Debug, Clone, Serialize)]
 pub struct SriReport {
     pub working_copy: WorkingCopyReport,
+    /// The map on the working copy before rescaling.
+    pub raw: RawSpread,
+    /// The two terms of S = ½ (D + A).
+    pub distinctness: RawSpread,
+    pub association: RawSpread,
     pub patches: usize,
     pub extremities: usize,
     pub distinct_foci: usize,
@@ -100,27 +113,20 @@ pub fn surface_regions_of_interest(
         )
     };
 
-    // Per radius: PCA-reduced spin images, in units of their spread so 1 − exp(−·) sees the
-    // same range at every radius. Stored flat, radius after radius, for the pair loop.
-    // f32 in lanes of 8 (zero-padded): the pair loop is the method's cost, and 8-wide sums
-    // vectorize; descriptor distances need nowhere near f64's precision.
+    // Per radius: PCA-reduced spin images (an orthogonal projection, so distances stay in
+    // the images' own units: a featureless shape stays featureless), f32 in lanes of 8
+    // (zero-padded) because the pair loop is the method's cost and 8-wide sums vectorize.
     let mut flat: Vec<Vec<f32>> = vec![Vec::new(); n];
     let mut dims = Vec::new();
+    let to_units = 1.0 / params.distance_scale;
     for &radius in &params.radii {
         let images = spin_images(&work, radius, params.alpha_bins, params.beta_bins);
         let u = pca_project(&images, params.pca_dims)?;
-        let spread = (u
-            .iter()
-            .map(|r| r.iter().map(|x| x * x).sum::<f64>())
-            .sum::<f64>()
-            / n as f64)
-            .sqrt()
-            .max(f64::MIN_POSITIVE);
         let padded = u[0].len().div_ceil(8) * 8;
         dims.push(padded);
         for (row, r) in flat.iter_mut().zip(u) {
             let start = row.len();
-            row.extend(r.into_iter().map(|x| (x / spread) as f32));
+            row.extend(r.into_iter().map(|x| (x * to_units) as f32));
             row.resize(start + padded, 0.0);
         }
     }
@@ -162,36 +168,44 @@ pub fn surface_regions_of_interest(
         })
         .collect();
     let max_d = distinctness.iter().cloned().fold(0.0, f64::max);
-    let relative: Vec<f64> = distinctness
-        .iter()
-        .map(|d| if max_d > 0.0 { d / max_d } else { 0.0 })
-        .collect();
-
     let extremities = extremity_patches(&work, &patches, &centre_distance, params.hull_directions)?;
+    // Foci are picked relative to the most distinct vertex but weigh how far they stand above
+    // the typical (median) vertex, so on a shape with nothing distinct no focus lifts its
+    // surroundings.
+    let mut sorted = distinctness.clone();
+    sorted.sort_by(f64::total_cmp);
+    let typical = sorted[n / 2];
     let mut foci: Vec<(usize, f64)> = (0..n)
-        .filter(|&v| relative[v] >= params.focus_threshold)
-        .map(|v| (v, relative[v]))
+        .filter(|&v| max_d > 0.0 && distinctness[v] >= params.focus_threshold * max_d)
+        .map(|v| (v, ((distinctness[v] - typical) / (1.0 - typical)).max(0.0)))
         .collect();
     let distinct_foci = foci.len();
-    foci.extend(extremities.iter().map(|&p| (patches.centres[p], 1.0)));
+    foci.extend(extremities.iter().filter_map(|&(p, reach)| {
+        let weight = ((reach - 1.0) / (params.extremity_reach - 1.0)).clamp(0.0, 1.0);
+        (weight > 0.0).then_some((patches.centres[p], weight))
+    }));
     let inv = 1.0 / (2.0 * params.association_sigma * params.association_sigma);
-    let saliency: Vec<f64> = (0..n)
+    let association: Vec<f64> = (0..n)
         .into_par_iter()
         .map(|v| {
-            let association = foci
-                .iter()
+            foci.iter()
                 .map(|&(f, value)| {
                     let g = geodesic(v, f);
                     value * (-g * g * inv).exp()
                 })
-                .fold(0.0, f64::max);
-            0.5 * (relative[v] + association)
+                .fold(0.0, f64::max)
         })
+        .collect();
+    let saliency: Vec<f64> = (0..n)
+        .map(|v| 0.5 * (distinctness[v] + association[v]))
         .collect();
     Ok((
         work.carry_back(&saliency),
         SriReport {
             working_copy: work.report(),
+            raw: RawSpread::of(&saliency, &work.areas),
+            distinctness: RawSpread::of(&distinctness, &work.areas),
+            association: RawSpread::of(&association, &work.areas),
             patches: patches.len(),
             extremities: extremities.len(),
             distinct_foci,
@@ -214,13 +228,13 @@ fn lane_distance(a: &[f32], b: &[f32]) -> f64 {
 
 /// Patches whose centres lie on the convex hull of a 3-D classical MDS embedding of the
 /// centre-to-centre geodesic distances and are farther from the embedding's centroid than
-/// every neighbouring patch.
+/// every neighbouring patch, each with its distance from the centroid over the median's.
 fn extremity_patches(
     work: &WorkingCopy,
     patches: &Patches,
     centre_distance: &[Vec<f64>],
     directions: usize,
-) -> Result<Vec<usize>, String> {
+) -> Result<Vec<(usize, f64)>, String> {
     let p = patches.len();
     if p < 4 {
         return Ok(Vec::new());
@@ -276,7 +290,11 @@ fn extremity_patches(
                 .sqrt()
         })
         .collect();
+    let mut sorted = radius.clone();
+    sorted.sort_by(f64::total_cmp);
+    let median = sorted[p / 2].max(f64::MIN_POSITIVE);
     Ok((0..p)
         .filter(|&a| on_hull[a] && patches.adjacency[a].iter().all(|&q| radius[q] < radius[a]))
+        .map(|a| (a, radius[a] / median))
         .collect())
 }

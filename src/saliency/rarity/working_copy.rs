@@ -155,3 +155,41 @@ fn without_unused_vertices(mesh: &Mesh) -> Mesh {
         triangles,
     }
 }
+
+/// How much a map varies before it is rescaled to [0, 1]: rescaling stretches any variation,
+/// even a featureless shape's numerical noise, to the full range, so this is what says
+/// whether a map is flat.
+#[derive(Debug, Clone, Copy, Serialize)]
+pub struct RawSpread {
+    pub min: f64,
+    pub max: f64,
+    pub mean: f64,
+    /// Area-weighted standard deviation.
+    pub std: f64,
+    /// Standard deviation over mean (area-weighted), 0 for a constant map.
+    pub coefficient_of_variation: f64,
+}
+
+impl RawSpread {
+    pub fn of(values: &[f64], areas: &[f64]) -> RawSpread {
+        let total: f64 = areas.iter().sum::<f64>().max(f64::MIN_POSITIVE);
+        let mean = values.iter().zip(areas).map(|(v, a)| v * a).sum::<f64>() / total;
+        let var = values
+            .iter()
+            .zip(areas)
+            .map(|(v, a)| a * (v - mean) * (v - mean))
+            .sum::<f64>()
+            / total;
+        RawSpread {
+            min: values.iter().cloned().fold(f64::INFINITY, f64::min),
+            max: values.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+            mean,
+            std: var.sqrt(),
+            coefficient_of_variation: if mean.abs() > 0.0 {
+                var.sqrt() / mean.abs()
+            } else {
+                0.0
+            },
+        }
+    }
+}
