@@ -13,7 +13,8 @@ use meshgaze::saliency::{compute_saliency, sparse_metric_saliency, Method, SmsEx
 ///
 /// Cases: the 35,947-vertex Stanford bunny, the 48k Cyberware horse, the 134k igea, and the
 /// 50k armadillo subdivided twice (about 800k vertices); each is compared with the paper's
-/// row nearest in size. SMS with its steps A/B/C, then MC, MS and SI. Each case runs in its own process so its peak memory is its own.
+/// row nearest in size. SMS with its steps A/B/C, then MC, MS, SI, SRI, MR and GR. Each cell
+/// (case × method) runs in its own process so its peak memory is its own.
 /// Prints a Markdown table; --csv also writes it as CSV. `--case NAME --method NAME` times one
 /// cell alone, in its own process, with its peak memory.
 #[derive(Debug, Args)]
@@ -32,7 +33,7 @@ pub struct BenchArgs {
     /// Only this case (bunny-35k, horse-48k, igea-134k, armadillo-subdivided).
     #[arg(long)]
     pub case: Option<String>,
-    /// Only this method (sms, ms, mc, si; the priors and the gaze model are not in the
+    /// Only this method (sms, mc, ms, si, sri, mr, gr; the priors and the gaze model are not in the
     /// paper's table and are refused): with --case, one cell of the table, timed in its
     /// own process so the peak memory is that method's alone.
     #[arg(long, value_enum)]
@@ -65,17 +66,48 @@ struct CaseResult {
     paper_total_s: f64,
     /// The paper's Table 3 row this case is compared with.
     paper_row: String,
-    /// Other methods' totals: (name, seconds, paper seconds).
-    baselines: Vec<(String, f64, f64)>,
+    /// Other methods' totals: (name, seconds, paper seconds, peak RSS MB of their process).
+    baselines: Vec<(String, f64, f64, f64)>,
 }
 
 /// A bench case and the row of the paper's Table 3 it is compared with (the nearest in
-/// vertex count): (case, paper mesh, paper SMS total, MC, MS, SI seconds).
-const CASES: [(&str, &str, f64, f64, f64, f64); 4] = [
-    ("bunny-35k", "Bunny 35k", 43.5, 0.5, 12.2, 13.7),
-    ("horse-48k", "Dinosaur 56k", 45.2, 1.8, 28.2, 23.6),
-    ("igea-134k", "Armadillo 172k", 44.3, 2.3, 56.1, 36.5),
-    ("armadillo-subdivided", "Lucy 604k", 48.9, 7.3, 448.0, 67.4),
+/// vertex count): case, paper mesh, and the paper's seconds for SMS (total) and each other
+/// method in [`PAPER_METHODS`] order.
+const CASES: [(&str, &str, f64, [f64; 6]); 4] = [
+    (
+        "bunny-35k",
+        "Bunny 35k",
+        43.5,
+        [0.5, 12.2, 13.7, 56.9, 35.8, 43.4],
+    ),
+    (
+        "horse-48k",
+        "Dinosaur 56k",
+        45.2,
+        [1.8, 28.2, 23.6, 100.2, 67.3, 86.3],
+    ),
+    (
+        "igea-134k",
+        "Armadillo 172k",
+        44.3,
+        [2.3, 56.1, 36.5, 245.8, 221.3, 276.2],
+    ),
+    (
+        "armadillo-subdivided",
+        "Lucy 604k",
+        48.9,
+        [7.3, 448.0, 67.4, 1178.2, 912.5, 1264.0],
+    ),
+];
+
+/// The competitors of the paper's Table 3, in its column order after SMS.
+const PAPER_METHODS: [Method; 6] = [
+    Method::Mc,
+    Method::Ms,
+    Method::Si,
+    Method::Sri,
+    Method::Mr,
+    Method::Gr,
 ];
 
 fn load_case(name: &str, data: &Path) -> Result<Mesh> {
@@ -176,9 +208,10 @@ fn run_case(name: &str, data: &Path, repeat: usize, only: Option<Method>) -> Res
         paper_row: case.map_or(String::new(), |c| c.1.to_string()),
         baselines: Vec::new(),
     });
-    if let Some(&(_, _, _, mc, ms, si)) = case {
-        for (method, paper) in [(Method::Mc, mc), (Method::Ms, ms), (Method::Si, si)]
+    if let Some(&(_, _, _, paper_seconds)) = case {
+        for (method, paper) in PAPER_METHODS
             .into_iter()
+            .zip(paper_seconds)
             .filter(|(m, _)| only.is_none_or(|o| o == *m))
         {
             let mut fastest = f64::INFINITY;
@@ -188,7 +221,7 @@ fn run_case(name: &str, data: &Path, repeat: usize, only: Option<Method>) -> Res
                 fastest = fastest.min(out.seconds);
             }
             best.baselines
-                .push((method.name().to_string(), fastest, paper));
+                .push((method.name().to_string(), fastest, paper, peak_rss_mb()));
         }
     }
     if !sms_ran {
@@ -240,9 +273,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
         return Ok(());
     }
     if let Some(m) = args.method {
-        if !matches!(m, Method::Sms | Method::Mc | Method::Ms | Method::Si) {
+        if m != Method::Sms && !PAPER_METHODS.contains(&m) {
             bail!(
-                "bench times the methods of the paper's Table 3 (sms, mc, ms, si), not `{}`; time it with `meshgaze saliency MESH --method {}` (the JSON sidecar records its seconds)",
+                "bench times the methods of the paper's Table 3 (sms, mc, ms, si, sri, mr, gr), not `{}`; time it with `meshgaze saliency MESH --method {}` (the JSON sidecar records its seconds)",
                 m.name(),
                 m.name()
             );
@@ -263,30 +296,51 @@ pub fn run(args: BenchArgs) -> Result<()> {
         .iter()
         .filter(|c| args.case.as_deref().is_none_or(|x| x == c.0))
     {
-        eprintln!("bench: {name} ...");
-        let mut cmd = Command::new(&exe);
-        cmd.args([
-            "bench",
-            "--child",
-            "--case",
-            name,
-            "--repeat",
-            &args.repeat.to_string(),
-            "--data",
-        ])
-        .arg(&data);
-        if let Some(m) = args.method {
-            cmd.args(["--method", m.name()]);
+        // One process per cell, so each cell's peak memory is its own.
+        let methods: Vec<Method> = match args.method {
+            Some(m) => vec![m],
+            None => std::iter::once(Method::Sms).chain(PAPER_METHODS).collect(),
+        };
+        let mut row: Option<CaseResult> = None;
+        for method in methods {
+            eprintln!("bench: {name} / {} ...", method.name());
+            let mut cmd = Command::new(&exe);
+            cmd.args([
+                "bench",
+                "--child",
+                "--case",
+                name,
+                "--repeat",
+                &args.repeat.to_string(),
+                "--method",
+                method.name(),
+                "--data",
+            ])
+            .arg(&data);
+            let out = cmd.output().context("cannot run the bench case")?;
+            if !out.status.success() {
+                bail!(
+                    "bench case {name} / {} failed: {}",
+                    method.name(),
+                    String::from_utf8_lossy(&out.stderr)
+                );
+            }
+            let line = String::from_utf8_lossy(&out.stdout);
+            let cell = serde_json::from_str::<CaseResult>(line.trim())?;
+            row = Some(match row {
+                None => cell,
+                Some(mut r) => {
+                    if method == Method::Sms {
+                        let baselines = std::mem::take(&mut r.baselines);
+                        r = CaseResult { baselines, ..cell };
+                    } else {
+                        r.baselines.extend(cell.baselines);
+                    }
+                    r
+                }
+            });
         }
-        let out = cmd.output().context("cannot run the bench case")?;
-        if !out.status.success() {
-            bail!(
-                "bench case {name} failed: {}",
-                String::from_utf8_lossy(&out.stderr)
-            );
-        }
-        let line = String::from_utf8_lossy(&out.stdout);
-        rows.push(serde_json::from_str::<CaseResult>(line.trim())?);
+        rows.extend(row);
     }
     println!("SMS at the paper's settings (n = 5000, 5 scales, 256³ grid, μ = 0.2, σ = 0.02), {threads} threads:\n");
     println!("| mesh | vertices | A metric (s) | of which field (s) | B saliency (s) | C interpolation (s) | total (s) | paper row | paper total (s) | speed-up | peak RSS (MB) |");
@@ -307,9 +361,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
             r.peak_rss_mb
         );
     }
-    println!("\nEvery method, total seconds (in parentheses: the paper's Table 3 row, and its seconds / ours):\n");
-    println!("| mesh | vertices | SMS | MC | MS | SI |");
-    println!("|---|---:|---:|---:|---:|---:|");
+    println!("\nEvery method, total seconds (in parentheses: the paper's Table 3 seconds, its seconds / ours, and the cell's peak RSS in MB, each cell in its own process):\n");
+    println!("| mesh | vertices | SMS | MC | MS | SI | SRI | MR | GR |");
+    println!("|---|---:|---:|---:|---:|---:|---:|---:|---:|");
     for r in &rows {
         let mut line = if r.total_s.is_finite() {
             format!(
@@ -323,10 +377,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
         } else {
             format!("| {} | {} | – |", r.name, r.vertices)
         };
-        for m in ["mc", "ms", "si"] {
-            match r.baselines.iter().find(|b| b.0 == m) {
-                Some((_, secs, paper)) => {
-                    line += &format!(" {secs:.3} ({paper}, {}) |", ratio(paper / secs))
+        for m in PAPER_METHODS {
+            match r.baselines.iter().find(|b| b.0 == m.name()) {
+                Some((_, secs, paper, peak)) => {
+                    line += &format!(
+                        " {secs:.3} ({paper}, {}, {peak:.0} MB) |",
+                        ratio(paper / secs)
+                    )
                 }
                 None => line += " – |",
             }
@@ -374,10 +431,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 r.paper_total_s,
                 r.peak_rss_mb
             ));
-            for (m, secs, paper) in &r.baselines {
+            for (m, secs, paper, peak) in &r.baselines {
                 w.push_str(&format!(
-                    "{},{},{m},,,,,{secs},{},{paper},{}\n",
-                    r.name, r.vertices, r.paper_row, r.peak_rss_mb
+                    "{},{},{m},,,,,{secs},{},{paper},{peak}\n",
+                    r.name, r.vertices, r.paper_row
                 ));
             }
         }
