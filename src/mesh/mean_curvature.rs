@@ -3,6 +3,7 @@
 //! K(v) = 1/(2 A_mixed) Σ_j (cot α_ij + cot β_ij)(v − v_j) = 2 H n, so |H| = |K|/2 with the sign
 //! of K · n (positive where the surface is convex with outward normals).
 use glam::DVec3;
+use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::mesh::Mesh;
@@ -18,6 +19,58 @@ pub struct CurvatureReport {
     pub vertices_without_area: usize,
 }
 
+/// The triangles around each vertex as compressed rows, in increasing triangle order: built
+/// by counting (no sort), so per-vertex sums over it add the same terms in the same order as
+/// a sequential loop over triangles would, and can run in parallel with the same bytes out.
+pub struct VertexTriangles {
+    offsets: Vec<usize>,
+    /// triangle index × 3 + the vertex's corner in it.
+    corners: Vec<u32>,
+}
+
+impl VertexTriangles {
+    pub fn of_mesh(mesh: &Mesh) -> VertexTriangles {
+        let n = mesh.positions.len();
+        let mut offsets = vec![0usize; n + 1];
+        for t in &mesh.triangles {
+            for &v in t {
+                offsets[v as usize + 1] += 1;
+            }
+        }
+        for i in 0..n {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut fill = offsets.clone();
+        let mut corners = vec![0u32; offsets[n]];
+        for (t, tri) in mesh.triangles.iter().enumerate() {
+            for (k, &v) in tri.iter().enumerate() {
+                corners[fill[v as usize]] = (t * 3 + k) as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        VertexTriangles { offsets, corners }
+    }
+
+    /// (triangle, corner) pairs of vertex v, triangles increasing.
+    pub fn of_vertex(&self, v: usize) -> impl Iterator<Item = (usize, usize)> + '_ {
+        self.corners[self.offsets[v]..self.offsets[v + 1]]
+            .iter()
+            .map(|&c| (c as usize / 3, c as usize % 3))
+    }
+
+    /// The other vertex of every edge at v, once per triangle using that edge, sorted: a
+    /// neighbour listed once sits on a boundary edge with v.
+    fn edge_partners(&self, mesh: &Mesh, v: usize, out: &mut Vec<u32>) {
+        out.clear();
+        for (t, k) in self.of_vertex(v) {
+            let tri = mesh.triangles[t];
+            out.push(tri[(k + 1) % 3]);
+            out.push(tri[(k + 2) % 3]);
+        }
+        out.sort_unstable();
+    }
+}
+
 /// Vertex adjacency (1-ring) as compressed rows: neighbours of v are
 /// `targets[offsets[v]..offsets[v + 1]]`, sorted, without duplicates.
 pub struct VertexAdjacency {
@@ -27,28 +80,28 @@ pub struct VertexAdjacency {
 
 impl VertexAdjacency {
     pub fn of_mesh(mesh: &Mesh) -> VertexAdjacency {
+        VertexAdjacency::from_incidence(mesh, &VertexTriangles::of_mesh(mesh))
+    }
+
+    pub fn from_incidence(mesh: &Mesh, incidence: &VertexTriangles) -> VertexAdjacency {
         let n = mesh.positions.len();
-        let mut pairs: Vec<(u32, u32)> = Vec::with_capacity(mesh.triangles.len() * 6);
-        for t in &mesh.triangles {
-            for k in 0..3 {
-                let (a, b) = (t[k], t[(k + 1) % 3]);
-                pairs.push((a, b));
-                pairs.push((b, a));
-            }
+        let rows: Vec<Vec<u32>> = (0..n)
+            .into_par_iter()
+            .map_init(Vec::new, |scratch, v| {
+                incidence.edge_partners(mesh, v, scratch);
+                let mut row = scratch.clone();
+                row.dedup();
+                row
+            })
+            .collect();
+        let mut offsets = Vec::with_capacity(n + 1);
+        offsets.push(0);
+        let mut targets = Vec::with_capacity(rows.iter().map(Vec::len).sum());
+        for row in rows {
+            targets.extend_from_slice(&row);
+            offsets.push(targets.len());
         }
-        pairs.sort_unstable();
-        pairs.dedup();
-        let mut offsets = vec![0usize; n + 1];
-        for &(a, _) in &pairs {
-            offsets[a as usize + 1] += 1;
-        }
-        for i in 0..n {
-            offsets[i + 1] += offsets[i];
-        }
-        VertexAdjacency {
-            offsets,
-            targets: pairs.into_iter().map(|(_, b)| b).collect(),
-        }
+        VertexAdjacency { offsets, targets }
     }
 
     pub fn neighbours(&self, v: usize) -> &[u32] {
@@ -58,28 +111,17 @@ impl VertexAdjacency {
 
 /// Vertices on an edge used by exactly one triangle.
 pub fn boundary_vertices(mesh: &Mesh) -> Vec<bool> {
-    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(mesh.triangles.len() * 3);
-    for t in &mesh.triangles {
-        for k in 0..3 {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            edges.push((a.min(b), a.max(b)));
-        }
-    }
-    edges.sort_unstable();
-    let mut boundary = vec![false; mesh.positions.len()];
-    let mut i = 0;
-    while i < edges.len() {
-        let mut j = i + 1;
-        while j < edges.len() && edges[j] == edges[i] {
-            j += 1;
-        }
-        if j - i == 1 {
-            boundary[edges[i].0 as usize] = true;
-            boundary[edges[i].1 as usize] = true;
-        }
-        i = j;
-    }
-    boundary
+    boundary_vertices_from(mesh, &VertexTriangles::of_mesh(mesh))
+}
+
+fn boundary_vertices_from(mesh: &Mesh, incidence: &VertexTriangles) -> Vec<bool> {
+    (0..mesh.positions.len())
+        .into_par_iter()
+        .map_init(Vec::new, |partners, v| {
+            incidence.edge_partners(mesh, v, partners);
+            partners.chunk_by(|a, b| a == b).any(|run| run.len() == 1)
+        })
+        .collect()
 }
 
 fn cot(u: DVec3, v: DVec3) -> f64 {
@@ -91,74 +133,103 @@ fn cot(u: DVec3, v: DVec3) -> f64 {
     }
 }
 
+/// One triangle's cotangents (of the angle at each corner) and each corner's mixed area.
+fn triangle_terms(p: [DVec3; 3]) -> ([f64; 3], [f64; 3]) {
+    let c: [f64; 3] = std::array::from_fn(|k| {
+        let (a, b, o) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
+        cot(b - a, o - a)
+    });
+    let tri_area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
+    let obtuse = (0..3).find(|&k| {
+        let (a, b, o) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
+        (b - a).dot(o - a) < 0.0
+    });
+    let area = std::array::from_fn(|i| {
+        let (j, l) = ((i + 1) % 3, (i + 2) % 3);
+        match obtuse {
+            None => {
+                // Voronoi region of corner i: (|ij|² cot l + |il|² cot j) / 8
+                ((p[j] - p[i]).length_squared() * c[l] + (p[l] - p[i]).length_squared() * c[j])
+                    / 8.0
+            }
+            Some(o) if o == i => tri_area / 2.0,
+            Some(_) => tri_area / 4.0,
+        }
+    });
+    (c, area)
+}
+
+/// Corner q's two terms of K, c_i (p_q − p_other) for the other corners i in increasing
+/// order, as a loop over the triangle's edges (j, l) opposite each corner i adds them.
+fn corner_laplace_terms(p: [DVec3; 3], c: [f64; 3], q: usize) -> [DVec3; 2] {
+    let (a, b) = ((q + 1) % 3, (q + 2) % 3);
+    let (first, second) = if a < b { (a, b) } else { (b, a) };
+    // The term from corner i pairs q with the corner that is neither q nor i.
+    [
+        c[first] * (p[q] - p[3 - q - first]),
+        c[second] * (p[q] - p[3 - q - second]),
+    ]
+}
+
 /// Signed mean curvature H of every vertex (input order and count; in 1/input units).
 pub fn mean_curvature(mesh: &Mesh) -> (Vec<f64>, CurvatureReport) {
     let n = mesh.positions.len();
-    let mut laplace = vec![DVec3::ZERO; n];
-    let mut area = vec![0.0; n];
-    for t in 0..mesh.triangles.len() {
-        let idx = mesh.triangles[t].map(|i| i as usize);
-        let p = idx.map(|i| mesh.positions[i]);
-        // Cotangent of the angle at each corner.
-        let c: [f64; 3] = std::array::from_fn(|k| {
-            let (a, b, o) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
-            cot(b - a, o - a)
-        });
-        let tri_area = 0.5 * (p[1] - p[0]).cross(p[2] - p[0]).length();
-        let obtuse = (0..3).find(|&k| {
-            let (a, b, o) = (p[k], p[(k + 1) % 3], p[(k + 2) % 3]);
-            (b - a).dot(o - a) < 0.0
-        });
-        for k in 0..3 {
-            let (i, j, l) = (k, (k + 1) % 3, (k + 2) % 3);
-            // Edge (j, l) is opposite corner i and carries cot at i.
-            laplace[idx[j]] += c[i] * (p[j] - p[l]);
-            laplace[idx[l]] += c[i] * (p[l] - p[j]);
-            area[idx[i]] += match obtuse {
-                None => {
-                    // Voronoi region of corner i: (|ij|² cot l + |il|² cot j) / 8
-                    ((p[j] - p[i]).length_squared() * c[l] + (p[l] - p[i]).length_squared() * c[j])
-                        / 8.0
-                }
-                Some(o) if o == i => tri_area / 2.0,
-                Some(_) => tri_area / 4.0,
-            };
-        }
-    }
-    let normals = mesh.vertex_normals();
-    let boundary = boundary_vertices(mesh);
-    let mut report = CurvatureReport::default();
-    let mut h: Vec<f64> = (0..n)
+    let incidence = VertexTriangles::of_mesh(mesh);
+    let terms: Vec<([f64; 3], [f64; 3])> = (0..mesh.triangles.len())
+        .into_par_iter()
+        .map(|t| triangle_terms(mesh.triangle(t)))
+        .collect();
+    // Each vertex gathers its triangles' terms in triangle order: the sums a sequential
+    // scatter over triangles makes, bit for bit, on any number of threads.
+    let interior: Vec<(f64, bool)> = (0..n)
+        .into_par_iter()
         .map(|v| {
-            if area[v] <= 0.0 {
-                report.vertices_without_area += 1;
-                return 0.0;
+            let mut laplace = DVec3::ZERO;
+            let mut area = 0.0;
+            let mut normal = DVec3::ZERO;
+            for (t, k) in incidence.of_vertex(v) {
+                let p = mesh.triangle(t);
+                let (c, areas) = terms[t];
+                let [first, second] = corner_laplace_terms(p, c, k);
+                laplace += first;
+                laplace += second;
+                area += areas[k];
+                normal += (p[1] - p[0]).cross(p[2] - p[0]);
             }
-            let k = laplace[v] / (2.0 * area[v]);
-            0.5 * k.length() * k.dot(normals[v]).signum()
+            if area <= 0.0 {
+                return (0.0, false);
+            }
+            let k = laplace / (2.0 * area);
+            (
+                0.5 * k.length() * k.dot(normal.normalize_or_zero()).signum(),
+                true,
+            )
         })
         .collect();
-    let adjacency = VertexAdjacency::of_mesh(mesh);
-    let interior = h.clone();
-    for v in 0..n {
-        if !boundary[v] {
-            continue;
-        }
-        report.boundary_vertices += 1;
-        let inner: Vec<f64> = adjacency
-            .neighbours(v)
-            .iter()
-            .filter(|&&u| !boundary[u as usize])
-            .map(|&u| interior[u as usize])
-            .collect();
-        h[v] = if inner.is_empty() {
-            report.boundary_vertices_without_interior_neighbour += 1;
-            0.0
-        } else {
-            inner.iter().sum::<f64>() / inner.len() as f64
-        };
-    }
-    (h, report)
+    let boundary = boundary_vertices_from(mesh, &incidence);
+    let mut report = CurvatureReport {
+        vertices_without_area: interior.iter().filter(|(_, has_area)| !has_area).count(),
+        boundary_vertices: boundary.iter().filter(|&&b| b).count(),
+        ..CurvatureReport::default()
+    };
+    let h: Vec<Option<f64>> = (0..n)
+        .into_par_iter()
+        .map_init(Vec::new, |partners, v| {
+            if !boundary[v] {
+                return Some(interior[v].0);
+            }
+            incidence.edge_partners(mesh, v, partners);
+            partners.dedup();
+            let inner: Vec<f64> = partners
+                .iter()
+                .filter(|&&u| !boundary[u as usize])
+                .map(|&u| interior[u as usize].0)
+                .collect();
+            (!inner.is_empty()).then(|| inner.iter().sum::<f64>() / inner.len() as f64)
+        })
+        .collect();
+    report.boundary_vertices_without_interior_neighbour = h.iter().filter(|x| x.is_none()).count();
+    (h.into_iter().map(|x| x.unwrap_or(0.0)).collect(), report)
 }
 
 /// Small synthetic meshes with known geometry, for tests and examples.
