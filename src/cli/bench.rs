@@ -72,7 +72,7 @@ struct CaseResult {
 
 /// A bench case and the row of the paper's Table 3 it is compared with (the nearest in
 /// vertex count): case, paper mesh, and the paper's seconds for SMS (total) and each other
-/// method in [`PAPER_METHODS`] order.
+/// method in [`COMPETITORS`] order.
 const CASES: [(&str, &str, f64, [f64; 6]); 4] = [
     (
         "bunny-35k",
@@ -101,7 +101,7 @@ const CASES: [(&str, &str, f64, [f64; 6]); 4] = [
 ];
 
 /// The competitors of the paper's Table 3, in its column order after SMS.
-const PAPER_METHODS: [Method; 6] = [
+const COMPETITORS: [Method; 6] = [
     Method::Mc,
     Method::Ms,
     Method::Si,
@@ -209,7 +209,7 @@ fn run_case(name: &str, data: &Path, repeat: usize, only: Option<Method>) -> Res
         baselines: Vec::new(),
     });
     if let Some(&(_, _, _, paper_seconds)) = case {
-        for (method, paper) in PAPER_METHODS
+        for (method, paper) in COMPETITORS
             .into_iter()
             .zip(paper_seconds)
             .filter(|(m, _)| only.is_none_or(|o| o == *m))
@@ -273,7 +273,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         return Ok(());
     }
     if let Some(m) = args.method {
-        if m != Method::Sms && !PAPER_METHODS.contains(&m) {
+        if m != Method::Sms && !COMPETITORS.contains(&m) {
             bail!(
                 "bench times the methods of the paper's Table 3 (sms, mc, ms, si, sri, mr, gr), not `{}`; time it with `meshgaze saliency MESH --method {}` (the JSON sidecar records its seconds)",
                 m.name(),
@@ -299,7 +299,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         // One process per cell, so each cell's peak memory is its own.
         let methods: Vec<Method> = match args.method {
             Some(m) => vec![m],
-            None => std::iter::once(Method::Sms).chain(PAPER_METHODS).collect(),
+            None => std::iter::once(Method::Sms).chain(COMPETITORS).collect(),
         };
         let mut row: Option<CaseResult> = None;
         for method in methods {
@@ -377,7 +377,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         } else {
             format!("| {} | {} | – |", r.name, r.vertices)
         };
-        for m in PAPER_METHODS {
+        for m in COMPETITORS {
             match r.baselines.iter().find(|b| b.0 == m.name()) {
                 Some((_, secs, paper, peak)) => {
                     line += &format!(

@@ -6,7 +6,7 @@ use clap::Args;
 
 use meshgaze::mesh::{parse_mesh_bytes, LoadReport, Mesh, MeshFormat};
 use meshgaze::provenance::InputFile;
-use meshgaze::saliency::Method;
+use meshgaze::saliency::PAPER_METHODS;
 use meshgaze::scoring::{score_mesh, MeshScore, ScoreParams};
 use meshgaze::stimulus::load::{load_stimulus, LoadedStimulus};
 use meshgaze::stimulus::{render_stimulus, FrameImages, Protocol, StimulusOptions};
@@ -175,11 +175,15 @@ pub fn run(args: DemoArgs) -> Result<()> {
     );
 
     // 6. Saliency.
-    say("6/7 computing saliency: SMS (the paper's method), MS (Lee 2005), MC (mean curvature)");
+    say("6/7 computing saliency: SMS (the paper's method) and its six competitors MC, MS, SI, SRI, MR, GR");
     let t = Instant::now();
     let sal_dir = out.join("saliency");
     let (maps, seconds, ginis) = saliency_step(&mesh_path, &mesh, &load, &sal_dir)?;
-    step("saliency", t, "saliency/bunny_{sms,ms,mc}.csv, .ply, .json");
+    step(
+        "saliency",
+        t,
+        "saliency/bunny_{sms,mc,ms,si,sri,mr,gr}.csv, .ply, .json",
+    );
 
     // 7. Scores and report.
     say("7/7 scoring against the ground truth and writing report.html");
@@ -290,14 +294,14 @@ fn projection_summary(pj: &serde_json::Value) -> String {
     )
 }
 
-/// The three maps the demo scores, with their seconds and Gini indices.
+/// The maps the demo scores, with their seconds and Gini indices.
 type DemoMaps = (
     Vec<(String, Vec<f64>)>,
     Vec<(String, f64)>,
     Vec<(&'static str, f64)>,
 );
 
-/// Step 6: SMS, MS and MC, each written as the `saliency` command writes it.
+/// Step 6: the paper's seven methods, each written as the `saliency` command writes it.
 fn saliency_step(
     mesh_path: &Path,
     mesh: &Mesh,
@@ -307,7 +311,7 @@ fn saliency_step(
     let mut maps = Vec::new();
     let mut seconds = Vec::new();
     let mut ginis = Vec::new();
-    for method in [Method::Sms, Method::Ms, Method::Mc] {
+    for method in PAPER_METHODS {
         let r = compute_and_write_map(
             mesh_path,
             mesh,

@@ -45,7 +45,7 @@ pub struct RobustnessArgs {
     /// Output prefix.
     #[arg(short, long)]
     pub output: PathBuf,
-    #[arg(long, value_delimiter = ',', default_value = "sms,ms,mc")]
+    #[arg(long, value_delimiter = ',', default_value = "sms,mc,ms,si,sri,mr,gr")]
     pub method: Vec<Method>,
     #[arg(long, default_value_t = 0.2)]
     pub noise: f64,

@@ -123,7 +123,9 @@ pub fn run(args: FeaturesArgs) -> Result<()> {
                 .values,
             format!("method {}", m.name()),
         ),
-        (None, None) => bail!("give --saliency FILE or --method sms|ms|mc|si"),
+        (None, None) => {
+            bail!("give --saliency FILE or --method NAME (sms, mc, ms, si, sri, mr, gr, ...)")
+        }
     };
     bars.start("geodesic graph", 0);
     let graph = GeodesicGraph::new(&mesh, args.steiner);

@@ -44,6 +44,18 @@ pub enum Method {
     Gaze,
 }
 
+/// The seven methods the paper compares (its Fig. 6, Tables 1-3 and Fig. 8), in its order:
+/// SMS first, then MC, MS, SI and the three global-rarity methods.
+pub const PAPER_METHODS: [Method; 7] = [
+    Method::Sms,
+    Method::Mc,
+    Method::Ms,
+    Method::Si,
+    Method::Sri,
+    Method::Mr,
+    Method::Gr,
+];
+
 impl Method {
     pub fn name(self) -> &'static str {
         match self {

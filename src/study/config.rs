@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use serde::Deserialize;
 
-use crate::saliency::Method;
+use crate::saliency::{Method, PAPER_METHODS};
 use crate::stimulus::Protocol;
 
 /// The file as written (see docs/study.md).
@@ -31,7 +31,7 @@ pub struct StudyFile {
 }
 
 fn default_methods() -> Vec<Method> {
-    vec![Method::Sms, Method::Ms, Method::Mc]
+    PAPER_METHODS.to_vec()
 }
 
 /// A mesh of the study: its name (the file stem, which a video file's stem must equal).
@@ -133,7 +133,7 @@ impl Study {
         }
         if file.methods.is_empty() {
             bail!(
-                "{}: `methods` is empty; name at least one (sms, ms, mc, si)",
+                "{}: `methods` is empty; name at least one (sms, mc, ms, si, sri, mr, gr, up, centre, gaze)",
                 path.display()
             );
         }
@@ -184,7 +184,9 @@ meshes = ["{mesh_dir}/*.ply", "{mesh_dir}/*.obj", "{mesh_dir}/*.off"]
 recordings = ["{recordings}"]
 
 # Saliency methods to compute and score against the subjects' fixations.
-methods = ["sms", "ms", "mc"]
+# The default is the paper's seven; each also takes up (height), centre (screen-centre
+# prior) and gaze (the learned model).
+methods = ["sms", "mc", "ms", "si", "sri", "mr", "gr"]
 
 # Output folder (default: study/ beside this file).
 # output = "study"
