@@ -10,6 +10,7 @@ pub mod video;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Instant;
 
 use serde::Serialize;
@@ -57,7 +58,10 @@ pub struct VideoFacts {
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Timings {
+    /// Seconds spent drawing frames (and overlays, PNGs).
     pub render_s: f64,
+    /// Seconds the encoder thread spent encoding; it runs beside the renderer, so the two
+    /// overlap and can add up to more than `total_s`.
     pub encode_s: f64,
     pub total_s: f64,
     pub frames_rendered: usize,
@@ -306,57 +310,81 @@ fn render_frames(
         rendered: 0,
         reused: 0,
     };
-    let mut cached: Option<(usize, Vec<u8>)> = None; // (viewpoint, image) of the current hold
+    let mut cached: Option<(usize, Arc<Vec<u8>>)> = None; // (viewpoint, image) of the current hold
     let overlays = protocol.sync.photodiode || protocol.sync.frame_counter;
     progress.start("rendering + encoding", n_frames as u64);
-    for i in 0..n_frames {
-        let cam = plan.at(i as f64 / fps as f64);
-        writeln!(timeline, "{}", timeline_row(i, &cam)).map_err(io)?;
-        let tr = Instant::now();
-        let hold_start =
-            cam.phase == Phase::Hold && cached.as_ref().is_none_or(|c| c.0 != cam.viewpoint);
-        let reuse =
-            cam.phase == Phase::Hold && cached.as_ref().is_some_and(|c| c.0 == cam.viewpoint);
-        if reuse {
-            counts.reused += 1;
-        } else {
-            counts.rendered += 1;
-            let img = raster.render(&cam, &protocol.rendering);
-            let key = if cam.phase == Phase::Hold {
-                cam.viewpoint
-            } else {
-                usize::MAX
-            };
-            cached = Some((key, img));
-        }
-        let image = &cached.as_ref().expect("rendered above").1;
-        let with_overlays;
-        let frame: &[u8] = if overlays {
-            let mut f = image.clone();
-            overlay::apply(&mut f, w as usize, h as usize, i, cam.phase, &protocol.sync);
-            with_overlays = f;
-            &with_overlays
-        } else {
-            image
-        };
-        counts.render_s += tr.elapsed().as_secs_f64();
-        if options.frames == FrameImages::All
-            || (options.frames == FrameImages::Keyframes && hold_start)
-        {
-            save_png(&frames_dir.join(format!("frame_{i:05}.png")), frame, w, h)?;
-        }
-        if options.id_buffer && hold_start {
-            save_id_buffer(
-                &mut raster,
-                &cam,
-                &frames_dir.join(format!("ids_{i:05}.png")),
-            )?;
-        }
-        let te = Instant::now();
-        video.push(frame)?;
-        counts.encode_s += te.elapsed().as_secs_f64();
-        progress.advance(1);
-    }
+    // The encoder runs on its own thread, a few frames behind the renderer: it takes frames
+    // in order, so the video is the same bytes as when one thread did both, and the wall
+    // time is about the larger of the two instead of their sum.
+    let (send, receive) = std::sync::mpsc::sync_channel::<Arc<Vec<u8>>>(4);
+    let encoded = std::thread::scope(|scope| -> Result<f64, String> {
+        let encoder = scope.spawn(move || -> Result<f64, String> {
+            let mut seconds = 0.0;
+            for frame in receive {
+                let te = Instant::now();
+                video.push(&frame)?;
+                seconds += te.elapsed().as_secs_f64();
+            }
+            Ok(seconds)
+        });
+        let rendering = (|| -> Result<(), String> {
+            for i in 0..n_frames {
+                let cam = plan.at(i as f64 / fps as f64);
+                writeln!(timeline, "{}", timeline_row(i, &cam)).map_err(io)?;
+                let tr = Instant::now();
+                let hold_start = cam.phase == Phase::Hold
+                    && cached.as_ref().is_none_or(|c| c.0 != cam.viewpoint);
+                let reuse = cam.phase == Phase::Hold
+                    && cached.as_ref().is_some_and(|c| c.0 == cam.viewpoint);
+                if reuse {
+                    counts.reused += 1;
+                } else {
+                    counts.rendered += 1;
+                    let img = raster.render(&cam, &protocol.rendering);
+                    let key = if cam.phase == Phase::Hold {
+                        cam.viewpoint
+                    } else {
+                        usize::MAX
+                    };
+                    cached = Some((key, Arc::new(img)));
+                }
+                let image = &cached.as_ref().expect("rendered above").1;
+                let frame = if overlays {
+                    let mut f = image.as_ref().clone();
+                    overlay::apply(&mut f, w as usize, h as usize, i, cam.phase, &protocol.sync);
+                    Arc::new(f)
+                } else {
+                    image.clone()
+                };
+                counts.render_s += tr.elapsed().as_secs_f64();
+                if options.frames == FrameImages::All
+                    || (options.frames == FrameImages::Keyframes && hold_start)
+                {
+                    save_png(&frames_dir.join(format!("frame_{i:05}.png")), &frame, w, h)?;
+                }
+                if options.id_buffer && hold_start {
+                    save_id_buffer(
+                        &mut raster,
+                        &cam,
+                        &frames_dir.join(format!("ids_{i:05}.png")),
+                    )?;
+                }
+                if send.send(frame).is_err() {
+                    // The encoder stopped: its own error is the one to report.
+                    break;
+                }
+                progress.advance(1);
+            }
+            Ok(())
+        })();
+        drop(send);
+        let encoded = encoder
+            .join()
+            .map_err(|_| "the video encoder thread panicked".to_string())?;
+        rendering?;
+        encoded
+    })?;
+    counts.encode_s = encoded;
     progress.finish();
     timeline.flush().map_err(io)?;
     Ok(counts)
