@@ -180,10 +180,10 @@ impl<'a> Rasterizer<'a> {
                     for py in 0..pixel_rows {
                         let y = b * BAND_PIXEL_ROWS + py; // pixel row in the frame
                         for x in 0..w {
-                            let sample = |dy: usize, dx: usize| tri[(py * s + dy) * width + x * s + dx];
+                            let sample =
+                                |dy: usize, dx: usize| tri[(py * s + dy) * width + x * s + dx];
                             let t0 = sample(0, 0);
-                            let uniform =
-                                (0..s).all(|dy| (0..s).all(|dx| sample(dy, dx) == t0));
+                            let uniform = (0..s).all(|dy| (0..s).all(|dx| sample(dy, dx) == t0));
                             let c = if uniform && t0 == BACKGROUND_ID {
                                 background
                             } else if uniform {
@@ -227,9 +227,8 @@ fn perspective_barycentrics(v: &[ScreenVertex; 3], c: (f64, f64)) -> [f64; 2] {
     // Each edge function divided by the signed area, so inside points weigh positive
     // whichever way the triangle winds on screen.
     let area = edge(p[0], p[1], p[2]);
-    let pc: [f64; 3] = std::array::from_fn(|k| {
-        edge(p[(k + 1) % 3], p[(k + 2) % 3], c) / area * v[k].inv_w
-    });
+    let pc: [f64; 3] =
+        std::array::from_fn(|k| edge(p[(k + 1) % 3], p[(k + 2) % 3], c) / area * v[k].inv_w);
     let sum = pc[0] + pc[1] + pc[2];
     if sum == 0.0 || !sum.is_finite() {
         return [1.0 / 3.0, 1.0 / 3.0];
