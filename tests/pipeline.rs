@@ -463,7 +463,11 @@ fn the_demo_runs_end_to_end_and_writes_an_offline_report() {
     }
     // Offline: nothing fetched from elsewhere.
     assert!(!html.contains("http://") && !html.contains("https://") && !html.contains("src=\"/"));
-    assert_eq!(html.matches("data:image/png;base64,").count(), 12 + 8 + 2);
+    // 12 keyframes, the truth and the seven methods' maps from two views, two score plots.
+    assert_eq!(
+        html.matches("data:image/png;base64,").count(),
+        12 + 2 * (1 + 7) + 2
+    );
     // The fates in truth.json add up to the fixations of each subject.
     let truth: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.join("truth/truth.json")).unwrap()).unwrap();
@@ -504,6 +508,12 @@ fn the_demo_runs_end_to_end_and_writes_an_offline_report() {
         "projection/project.json",
         "truth/truth.json",
         "saliency/bunny_sms.json",
+        "saliency/bunny_mc.json",
+        "saliency/bunny_ms.json",
+        "saliency/bunny_si.json",
+        "saliency/bunny_sri.json",
+        "saliency/bunny_mr.json",
+        "saliency/bunny_gr.json",
         "score/score.csv",
         "truth/truth.ply",
     ] {
