@@ -95,10 +95,12 @@ pub fn spectral_irregularity(
         laplacian[(a, a)] += w;
         laplacian[(b, b)] += w;
     }
-    // Sequential on purpose: the result is then the same bytes on any thread count.
+    // Always split in two, whatever the pool's size: faer partitions the work by this count,
+    // not by the threads that run it, so the bytes are the same on 1, 2 or more threads
+    // (tests/sms.rs) while 2 cores share the work (bunny 4.6 s -> 2.7 s).
     let mut eigenvalues = faer::diag::Diag::<f64>::zeros(n);
     let mut basis = Mat::<f64>::zeros(n, n);
-    let par = faer::Par::Seq;
+    let par = faer::Par::rayon(2);
     let scratch = faer::linalg::evd::self_adjoint_evd_scratch::<f64>(
         n,
         faer::linalg::evd::ComputeEigenvectors::Yes,
