@@ -258,3 +258,53 @@ fn same_seed_same_bytes_on_one_and_two_threads() {
         assert!(a != csv("2", "9"), "{method}: the seed changes nothing");
     }
 }
+
+/// `--set METHOD.NAME=VALUE` is user input: whatever the text, it gives parameters or an
+/// error that quotes the setting, never a panic; a valid setting changes only its own slot.
+mod settings {
+    use meshgaze::saliency::RarityParams;
+    use proptest::prelude::*;
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(256))]
+        #[test]
+        fn any_text_gives_parameters_or_an_error_naming_it(text in "\\PC{0,40}") {
+            match RarityParams::default().with_settings(std::slice::from_ref(&text)) {
+                Ok(_) => prop_assert!(text.contains('=') && text.contains('.')),
+                Err(e) => prop_assert!(e.starts_with("--set"), "{e}"),
+            }
+        }
+
+        #[test]
+        fn a_valid_number_lands_in_its_slot(k in 1usize..500, method in 0usize..3) {
+            let name = ["sri", "gr", "mr"][method];
+            let p = RarityParams::default()
+                .with_settings(&[format!("{name}.patches={k}")])
+                .unwrap();
+            let d = RarityParams::default();
+            let got = [p.sri.patches, p.gr.patches, p.mr.patches];
+            let want = [d.sri.patches, d.gr.patches, d.mr.patches];
+            for (i, (g, w)) in got.iter().zip(want).enumerate() {
+                prop_assert_eq!(*g, if i == method { k } else { w });
+            }
+        }
+    }
+
+    #[test]
+    fn wrong_names_and_values_say_what_is_wrong() {
+        let err = |s: &str| {
+            RarityParams::default()
+                .with_settings(&[s.to_string()])
+                .unwrap_err()
+        };
+        assert!(err("sri.most_similar").contains("expected METHOD.NAME=VALUE"));
+        assert!(err("most_similar=3").contains("needs its method"));
+        assert!(err("sms.samples=3").contains("not one of sri, gr, mr"));
+        assert!(err("gr.bogus=1").contains("it has "));
+        assert!(err("gr.patches=many").starts_with("--set gr.patches=many: invalid type"));
+        let two = RarityParams::default()
+            .with_settings(&["sri.seed=2".into(), "mr.alpha=high".into()])
+            .unwrap_err();
+        assert!(two.starts_with("--set mr.alpha=high:"), "{two}");
+    }
+}

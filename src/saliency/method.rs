@@ -132,6 +132,9 @@ impl RarityParams {
             let value = value.trim();
             *slot = serde_json::from_str(value)
                 .unwrap_or_else(|_| serde_json::Value::String(value.to_string()));
+            // Checked one setting at a time, so a bad value is reported with its own name.
+            serde_json::from_value::<RarityParams>(tree.clone())
+                .map_err(|e| format!("--set {setting}: {e}"))?;
         }
         serde_json::from_value(tree).map_err(|e| format!("--set: {e}"))
     }
