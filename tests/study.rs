@@ -285,3 +285,24 @@ fn a_study_toml_typo_names_the_file_line_and_column() {
         "{e}"
     );
 }
+
+#[test]
+fn a_bad_set_line_names_the_file_and_the_setting() {
+    let dir = setup("badset");
+    std::fs::write(
+        dir.join("study.toml"),
+        "protocol = \"short.toml\"\nmeshes = [\"meshes/*.ply\"]\nmethods = [\"sri\"]\nset = [\"sri.most_similar=many\"]\n",
+    )
+    .unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+        .current_dir(&dir)
+        .args(["study", "run", "study.toml"])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let e = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        e.contains("study.toml") && e.contains("sri.most_similar=many"),
+        "{e}"
+    );
+}

@@ -4,7 +4,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use serde::Deserialize;
 
-use crate::saliency::{Method, PAPER_METHODS};
+use crate::saliency::{Method, RarityParams, PAPER_METHODS};
 use crate::stimulus::Protocol;
 
 /// The file as written (see docs/study.md).
@@ -21,6 +21,9 @@ pub struct StudyFile {
     /// Saliency methods to compute and score.
     #[serde(default = "default_methods")]
     pub methods: Vec<Method>,
+    /// Parameters of sri, gr and mr as `METHOD.NAME=VALUE`, as `meshgaze saliency --set`.
+    #[serde(default)]
+    pub set: Vec<String>,
     /// Output folder; unset: `study/` beside study.toml.
     pub output: Option<PathBuf>,
     /// Messages that start a stimulus (one capture group, the video file name); unset: the
@@ -53,6 +56,9 @@ pub struct Study {
     /// Sorted.
     pub recordings: Vec<PathBuf>,
     pub methods: Vec<Method>,
+    /// The `set` lines as written, and the parameters they give.
+    pub settings: Vec<String>,
+    pub rarity: RarityParams,
     pub output: PathBuf,
     pub stimulus_pattern: Option<String>,
     pub stimulus_end_pattern: Option<String>,
@@ -137,6 +143,9 @@ impl Study {
                 path.display()
             );
         }
+        let rarity = RarityParams::default()
+            .with_settings(&file.set)
+            .map_err(|e| anyhow::anyhow!("{}: `set`: {e}", path.display()))?;
         let recordings = expand(&base, &file.recordings, "recordings", &mut unmatched)?;
         Ok(Study {
             file: path.to_path_buf(),
@@ -146,6 +155,8 @@ impl Study {
             meshes,
             recordings,
             methods: file.methods,
+            settings: file.set,
+            rarity,
             output: base.join(file.output.unwrap_or_else(|| PathBuf::from("study"))),
             stimulus_pattern: file.stimulus_pattern,
             stimulus_end_pattern: file.stimulus_end_pattern,
@@ -187,6 +198,10 @@ recordings = ["{recordings}"]
 # The default is the paper's seven; each also takes up (height), centre (screen-centre
 # prior) and gaze (the learned model).
 methods = ["sms", "mc", "ms", "si", "sri", "mr", "gr"]
+
+# Parameters of sri, gr and mr, as `meshgaze saliency --set` takes them
+# (docs/baselines.md lists every one). Changing one recomputes only that method's maps.
+# set = ["sri.most_similar=32", "gr.radii=[0.1, 0.2]"]
 
 # Output folder (default: study/ beside this file).
 # output = "study"

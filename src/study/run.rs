@@ -242,12 +242,17 @@ fn write_study_json(study: &Study, run: &StudyRun) -> Result<()> {
     struct StudyJson<'a> {
         provenance: crate::provenance::Provenance,
         methods: Vec<&'static str>,
+        /// The study's `set` lines and every parameter of sri, gr and mr they give.
+        settings: &'a [String],
+        rarity: &'a crate::saliency::RarityParams,
         output: String,
         run: &'a StudyRun,
     }
     let json = StudyJson {
         provenance: crate::provenance::Provenance::new(inputs),
         methods: study.methods.iter().map(|m| m.name()).collect(),
+        settings: &study.settings,
+        rarity: &study.rarity,
         output: study.output.display().to_string(),
         run,
     };
@@ -554,7 +559,16 @@ fn saliency_step(
         let dir = study.output.join("saliency").join(method.name());
         let prefix = dir.join(&m.name);
         let stamp_dir = dir.join(format!(".{}", m.name));
-        let key = key_of(&["saliency", method.name(), &stim.mesh_sha256]);
+        // A method's own `set` lines are part of its key: changing them recomputes its maps.
+        let own: Vec<&str> = study
+            .settings
+            .iter()
+            .filter(|s| s.trim_start().starts_with(&format!("{}.", method.name())))
+            .map(String::as_str)
+            .collect();
+        let mut parts = vec!["saliency", method.name(), &stim.mesh_sha256];
+        parts.extend(own);
+        let key = key_of(&parts);
         if stamped(&stamp_dir, &key) {
             logs.push(log(&m.name, &step, "up-to-date", ""));
             let values = read_map(&prefix.with_extension("csv"), stim.mesh.positions.len())?;
@@ -571,7 +585,7 @@ fn saliency_step(
             &crate::saliency::Viewing {
                 protocol: study.protocol.clone(),
                 model: None,
-                rarity: Default::default(),
+                rarity: study.rarity.clone(),
             },
             MapOutputs::default(),
             &prefix,
