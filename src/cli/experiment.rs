@@ -47,6 +47,9 @@ pub struct RobustnessArgs {
     pub output: PathBuf,
     #[arg(long, value_delimiter = ',', default_value = "sms,mc,ms,si,sri,mr,gr")]
     pub method: Vec<Method>,
+    /// A parameter of sri, gr or mr as METHOD.NAME=VALUE (repeatable), as `saliency --set`.
+    #[arg(long = "set", value_name = "METHOD.NAME=VALUE")]
+    pub settings: Vec<String>,
     #[arg(long, default_value_t = 0.2)]
     pub noise: f64,
     #[arg(long, default_value_t = 5000)]
@@ -96,6 +99,9 @@ fn run_robustness(args: RobustnessArgs) -> Result<()> {
         hole_radius: args.hole_radius,
         top_fraction: args.top_fraction,
         seed: args.seed,
+        rarity: meshgaze::saliency::RarityParams::default()
+            .with_settings(&args.settings)
+            .map_err(anyhow::Error::msg)?,
     };
     let bars = Bars::new(args.quiet);
     let result = robustness(&mesh, &args.method, &SmsParams::default(), &params, &bars)

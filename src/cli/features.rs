@@ -17,7 +17,7 @@ use meshgaze::mesh::load_mesh;
 use meshgaze::progress::Progress;
 use meshgaze::provenance::{InputFile, Provenance};
 use meshgaze::report::plot::{line_chart_png, Chart, Series, PALETTE};
-use meshgaze::saliency::{compute_saliency, Method, SmsParams};
+use meshgaze::saliency::{compute_saliency_viewed, Method, RarityParams, SmsParams, Viewing};
 use meshgaze::truth::{load_ground_truth, GroundTruth};
 
 use super::progress_bar::Bars;
@@ -48,6 +48,9 @@ pub struct FeaturesArgs {
     /// Compute this method's map instead.
     #[arg(long, value_enum)]
     pub method: Option<Method>,
+    /// A parameter of sri, gr or mr as METHOD.NAME=VALUE (repeatable), as `saliency --set`.
+    #[arg(long = "set", value_name = "METHOD.NAME=VALUE")]
+    pub settings: Vec<String>,
     /// Output prefix.
     #[arg(short, long)]
     pub output: PathBuf,
@@ -118,10 +121,29 @@ pub fn run(args: FeaturesArgs) -> Result<()> {
             (m.values, f.display().to_string())
         }
         (None, Some(m)) => (
-            compute_saliency(m, &mesh, &SmsParams::default(), &bars)
-                .map_err(anyhow::Error::msg)?
-                .values,
-            format!("method {}", m.name()),
+            compute_saliency_viewed(
+                m,
+                &mesh,
+                &SmsParams::default(),
+                &Viewing {
+                    rarity: RarityParams::default()
+                        .with_settings(&args.settings)
+                        .map_err(anyhow::Error::msg)?,
+                    ..Viewing::builtin()
+                },
+                &bars,
+            )
+            .map_err(anyhow::Error::msg)?
+            .values,
+            if args.settings.is_empty() {
+                format!("method {}", m.name())
+            } else {
+                format!(
+                    "method {} with --set {}",
+                    m.name(),
+                    args.settings.join(" --set ")
+                )
+            },
         ),
         (None, None) => {
             bail!("give --saliency FILE or --method NAME (sms, mc, ms, si, sri, mr, gr, ...)")

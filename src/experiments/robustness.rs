@@ -10,7 +10,7 @@ use crate::mesh::geometry::{pearson, BoundingBox, Normalization};
 use crate::mesh::simplification::simplify_to_vertex_count;
 use crate::mesh::Mesh;
 use crate::progress::Progress;
-use crate::saliency::{compute_saliency, Method, SmsParams};
+use crate::saliency::{compute_saliency_viewed, Method, RarityParams, SmsParams, Viewing};
 use crate::scoring::auc_judd;
 
 #[derive(Debug, Clone, Serialize)]
@@ -25,6 +25,8 @@ pub struct RobustnessParams {
     /// Positives of the agreement AUC: this top fraction of the clean map.
     pub top_fraction: f64,
     pub seed: u64,
+    /// Parameters of sri, gr and mr (their defaults unless `--set`).
+    pub rarity: RarityParams,
 }
 
 impl Default for RobustnessParams {
@@ -36,6 +38,7 @@ impl Default for RobustnessParams {
             hole_radius: 0.05,
             top_fraction: 0.1,
             seed: 1,
+            rarity: RarityParams::default(),
         }
     }
 }
@@ -129,12 +132,16 @@ pub fn robustness(
     progress: &dyn Progress,
 ) -> Result<RobustnessResult, String> {
     let corrupted = corrupt(mesh, p)?;
+    let viewing = Viewing {
+        rarity: p.rarity.clone(),
+        ..Viewing::builtin()
+    };
     let n = mesh.positions.len();
     let k = ((p.top_fraction * n as f64).round() as usize).clamp(1, n);
     let mut maps = Vec::new();
     let mut rows = Vec::new();
     for &method in methods {
-        let clean = compute_saliency(method, mesh, sms, progress)?;
+        let clean = compute_saliency_viewed(method, mesh, sms, &viewing, progress)?;
         // The clean map's top k vertices (ties to the lower index).
         let mut order: Vec<usize> = (0..n).collect();
         order.sort_by(|&a, &b| clean.values[b].total_cmp(&clean.values[a]).then(a.cmp(&b)));
@@ -144,7 +151,7 @@ pub fn robustness(
         }
         let mut own = Vec::new();
         for c in &corrupted {
-            let out = compute_saliency(method, &c.mesh, sms, progress)?;
+            let out = compute_saliency_viewed(method, &c.mesh, sms, &viewing, progress)?;
             let back = transfer_by_nearest_surface_point(&c.mesh, &out.values, &mesh.positions);
             rows.push(AgreementRow {
                 method: method.name().to_string(),
