@@ -175,18 +175,9 @@ fn a_sphere_gives_a_flat_map_before_rescaling() {
 #[test]
 fn maps_are_invariant_to_rotation_translation_and_scale() {
     let bunny = common::bunny();
-    let rot = common::rotation(0.4, 1.2, -0.8);
     for method in RARITY {
         let base = run(method, &bunny).values;
-        let cases: [(&str, Mesh); 3] = [
-            ("rotated", common::transformed(&bunny, |p| rot * p)),
-            (
-                "translated",
-                common::transformed(&bunny, |p| p + DVec3::new(12.0, -3.0, 7.5)),
-            ),
-            ("scaled x37", common::transformed(&bunny, |p| p * 37.0)),
-        ];
-        for (what, mesh) in cases {
+        for (what, mesh) in common::rigid_and_scaled_copies(&bunny) {
             let r = pearson(&base, &run(method, &mesh).values);
             eprintln!("{} {what}: Pearson {r:.4}", method.name());
             assert!(r >= 0.95, "{} {what}: Pearson {r:.4} < 0.95", method.name());

@@ -338,16 +338,7 @@ fn report_pearson(what: &str, r: f64, floor: f64) {
 fn map_is_invariant_to_rotation_translation_and_scale() {
     let bunny = common::bunny();
     let base = bunny_map();
-    let rot = common::rotation(0.4, 1.2, -0.8);
-    let cases: [(&str, Mesh); 3] = [
-        ("rotated", common::transformed(&bunny, |p| rot * p)),
-        (
-            "translated",
-            common::transformed(&bunny, |p| p + DVec3::new(12.0, -3.0, 7.5)),
-        ),
-        ("scaled x37", common::transformed(&bunny, |p| p * 37.0)),
-    ];
-    for (what, mesh) in cases {
+    for (what, mesh) in common::rigid_and_scaled_copies(&bunny) {
         report_pearson(what, pearson(base, &sms(&mesh)), 0.98);
     }
 }

@@ -265,21 +265,25 @@ fn a_playlist_study_runs_resumes_shards_and_refuses_a_changed_mesh() {
     assert!(!log_lines(&dir, "up-to-date").is_empty());
 }
 
-#[test]
-fn a_study_toml_typo_names_the_file_line_and_column() {
-    let dir = setup("typo");
-    std::fs::write(
-        dir.join("study.toml"),
-        "protocol = \"short.toml\"\nmeshes = [\"meshes/*.ply\"]\nmethod = [\"mc\"]\n",
-    )
-    .unwrap();
+/// Runs `study run` on this study.toml in a fresh folder; it must fail: its stderr.
+fn failed_run(name: &str, toml: &str) -> String {
+    let dir = setup(name);
+    std::fs::write(dir.join("study.toml"), toml).unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_meshgaze"))
         .current_dir(&dir)
         .args(["study", "run", "study.toml"])
         .output()
         .unwrap();
     assert!(!out.status.success());
-    let e = String::from_utf8_lossy(&out.stderr);
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+#[test]
+fn a_study_toml_typo_names_the_file_line_and_column() {
+    let e = failed_run(
+        "typo",
+        "protocol = \"short.toml\"\nmeshes = [\"meshes/*.ply\"]\nmethod = [\"mc\"]\n",
+    );
     assert!(
         e.contains("study.toml") && e.contains("line 3, column 1") && e.contains("method"),
         "{e}"
@@ -288,19 +292,10 @@ fn a_study_toml_typo_names_the_file_line_and_column() {
 
 #[test]
 fn a_bad_set_line_names_the_file_and_the_setting() {
-    let dir = setup("badset");
-    std::fs::write(
-        dir.join("study.toml"),
+    let e = failed_run(
+        "badset",
         "protocol = \"short.toml\"\nmeshes = [\"meshes/*.ply\"]\nmethods = [\"sri\"]\nset = [\"sri.most_similar=many\"]\n",
-    )
-    .unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_meshgaze"))
-        .current_dir(&dir)
-        .args(["study", "run", "study.toml"])
-        .output()
-        .unwrap();
-    assert!(!out.status.success());
-    let e = String::from_utf8_lossy(&out.stderr);
+    );
     assert!(
         e.contains("study.toml") && e.contains("sri.most_similar=many"),
         "{e}"

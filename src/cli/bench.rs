@@ -7,7 +7,9 @@ use serde::{Deserialize, Serialize};
 
 use meshgaze::mesh::{load_mesh, subdivide_midpoint, Mesh};
 use meshgaze::progress::Silent;
-use meshgaze::saliency::{compute_saliency, sparse_metric_saliency, Method, SmsExtras, SmsParams};
+use meshgaze::saliency::{
+    compute_saliency, sparse_metric_saliency, Method, SmsExtras, SmsParams, PAPER_METHODS,
+};
 
 /// Time SMS at the paper's settings, as in the paper's Table 3.
 ///
@@ -101,14 +103,7 @@ const CASES: [(&str, &str, f64, [f64; 6]); 4] = [
 ];
 
 /// The competitors of the paper's Table 3, in its column order after SMS.
-const COMPETITORS: [Method; 6] = [
-    Method::Mc,
-    Method::Ms,
-    Method::Si,
-    Method::Sri,
-    Method::Mr,
-    Method::Gr,
-];
+const COMPETITORS: &[Method] = PAPER_METHODS.split_at(1).1;
 
 fn load_case(name: &str, data: &Path) -> Result<Mesh> {
     Ok(match name {
@@ -210,7 +205,8 @@ fn run_case(name: &str, data: &Path, repeat: usize, only: Option<Method>) -> Res
     });
     if let Some(&(_, _, _, paper_seconds)) = case {
         for (method, paper) in COMPETITORS
-            .into_iter()
+            .iter()
+            .copied()
             .zip(paper_seconds)
             .filter(|(m, _)| only.is_none_or(|o| o == *m))
         {
@@ -299,7 +295,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
         // One process per cell, so each cell's peak memory is its own.
         let methods: Vec<Method> = match args.method {
             Some(m) => vec![m],
-            None => std::iter::once(Method::Sms).chain(COMPETITORS).collect(),
+            None => std::iter::once(Method::Sms)
+                .chain(COMPETITORS.iter().copied())
+                .collect(),
         };
         let mut row: Option<CaseResult> = None;
         for method in methods {
@@ -377,7 +375,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
         } else {
             format!("| {} | {} | – |", r.name, r.vertices)
         };
-        for m in COMPETITORS {
+        for &m in COMPETITORS {
             match r.baselines.iter().find(|b| b.0 == m.name()) {
                 Some((_, secs, paper, peak)) => {
                     line += &format!(

@@ -173,8 +173,15 @@ fn corner_laplace_terms(p: [DVec3; 3], c: [f64; 3], q: usize) -> [DVec3; 2] {
 
 /// Signed mean curvature H of every vertex (input order and count; in 1/input units).
 pub fn mean_curvature(mesh: &Mesh) -> (Vec<f64>, CurvatureReport) {
+    mean_curvature_with(mesh, &VertexTriangles::of_mesh(mesh))
+}
+
+/// [`mean_curvature`] over an incidence the caller built (and may use again).
+pub fn mean_curvature_with(
+    mesh: &Mesh,
+    incidence: &VertexTriangles,
+) -> (Vec<f64>, CurvatureReport) {
     let n = mesh.positions.len();
-    let incidence = VertexTriangles::of_mesh(mesh);
     let terms: Vec<([f64; 3], [f64; 3])> = (0..mesh.triangles.len())
         .into_par_iter()
         .map(|t| triangle_terms(mesh.triangle(t)))
@@ -206,7 +213,7 @@ pub fn mean_curvature(mesh: &Mesh) -> (Vec<f64>, CurvatureReport) {
             )
         })
         .collect();
-    let boundary = boundary_vertices_from(mesh, &incidence);
+    let boundary = boundary_vertices_from(mesh, incidence);
     let mut report = CurvatureReport {
         vertices_without_area: interior.iter().filter(|(_, has_area)| !has_area).count(),
         boundary_vertices: boundary.iter().filter(|&&b| b).count(),

@@ -13,7 +13,9 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use super::sms::gaussian_interpolation::min_max_normalize;
-use crate::mesh::mean_curvature::{mean_curvature, CurvatureReport, VertexAdjacency};
+use crate::mesh::mean_curvature::{
+    mean_curvature_with, CurvatureReport, VertexAdjacency, VertexTriangles,
+};
 use crate::mesh::Mesh;
 
 #[derive(Debug, Clone, Serialize)]
@@ -43,7 +45,9 @@ pub struct LeeReport {
 
 /// Per-vertex MS saliency in [0, 1] (input order and count).
 pub fn lee_mesh_saliency(mesh: &Mesh, params: &LeeParams) -> (Vec<f64>, LeeReport) {
-    let (h, curvature) = mean_curvature(mesh);
+    // One incidence serves the curvature and the 1-ring of the suppression step.
+    let incidence = VertexTriangles::of_mesh(mesh);
+    let (h, curvature) = mean_curvature_with(mesh, &incidence);
     let (lo, hi) = mesh.referenced_bounds().expect("a mesh with triangles");
     let epsilon = params.epsilon_fraction * (hi - lo).length();
     // Every distinct σ (σ_i and 2σ_i), each with cutoff 2σ.
@@ -108,7 +112,7 @@ pub fn lee_mesh_saliency(mesh: &Mesh, params: &LeeParams) -> (Vec<f64>, LeeRepor
             .position(|s| (s - sigma).abs() <= 1e-12 * sigma)
             .expect("σ in the list")
     };
-    let adjacency = VertexAdjacency::of_mesh(mesh);
+    let adjacency = VertexAdjacency::from_incidence(mesh, &incidence);
     let mut total = vec![0.0; mesh.positions.len()];
     let mut suppression = Vec::new();
     for m in &params.scale_multipliers {

@@ -72,6 +72,19 @@ pub fn transformed(mesh: &Mesh, f: impl Fn(DVec3) -> DVec3) -> Mesh {
     }
 }
 
+/// The mesh rotated, translated and scaled ×37: the copies an invariant map must not notice.
+pub fn rigid_and_scaled_copies(mesh: &Mesh) -> [(&'static str, Mesh); 3] {
+    let rot = rotation(0.4, 1.2, -0.8);
+    [
+        ("rotated", transformed(mesh, |p| rot * p)),
+        (
+            "translated",
+            transformed(mesh, |p| p + DVec3::new(12.0, -3.0, 7.5)),
+        ),
+        ("scaled x37", transformed(mesh, |p| p * 37.0)),
+    ]
+}
+
 pub fn read_file(path: &Path) -> Vec<u8> {
     std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
 }
