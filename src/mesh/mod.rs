@@ -3,6 +3,7 @@
 //! Readers keep the input vertex order and count exactly, because every per-vertex output
 //! (saliency, ground truth) is indexed by the input file's vertex numbering.
 
+pub mod clustered_gaussian_average;
 pub mod edge_graph;
 mod error;
 pub mod geometry;

@@ -7,16 +7,19 @@
 //! bounding-box diagonal. Suppression: rescale S_i to [0, 1], m̄ = mean of its local maxima
 //! (1-ring) other than the global maximum, S_i ← S_i (1 − m̄)².
 //! Avoided pitfalls of public code: the centre vertex is included, weights are summed in
-//! floating point, each scale uses its own kernel, distances are Euclidean (kd-tree).
+//! floating point, each scale uses its own kernel, distances are Euclidean. The sums are
+//! taken over clusters of vertices by default (see `GaussianSum`, docs/baselines.md).
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rayon::prelude::*;
 use serde::Serialize;
 
 use super::sms::gaussian_interpolation::min_max_normalize;
+use crate::mesh::clustered_gaussian_average::{clustered_gaussian_average, GaussianSum};
 use crate::mesh::mean_curvature::{
     mean_curvature_with, CurvatureReport, VertexAdjacency, VertexTriangles,
 };
 use crate::mesh::Mesh;
+use glam::DVec3;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct LeeParams {
@@ -24,6 +27,8 @@ pub struct LeeParams {
     pub epsilon_fraction: f64,
     /// Scale multipliers of ε (Lee et al.: 2, 3, 4, 5, 6).
     pub scale_multipliers: Vec<f64>,
+    /// How each G(v, σ) is summed.
+    pub gaussian_sum: GaussianSum,
 }
 
 impl Default for LeeParams {
@@ -31,6 +36,9 @@ impl Default for LeeParams {
         LeeParams {
             epsilon_fraction: 0.003,
             scale_multipliers: vec![2.0, 3.0, 4.0, 5.0, 6.0],
+            gaussian_sum: GaussianSum::Clustered {
+                cells_per_sigma: 6.0,
+            },
         }
     }
 }
@@ -58,54 +66,18 @@ pub fn lee_mesh_saliency(mesh: &Mesh, params: &LeeParams) -> (Vec<f64>, LeeRepor
         .collect();
     sigmas.sort_by(f64::total_cmp);
     sigmas.dedup();
-    let max_cutoff = 2.0 * sigmas.last().copied().unwrap_or(0.0);
-
     let mut used = vec![false; mesh.positions.len()];
     for t in &mesh.triangles {
         for &i in t {
             used[i as usize] = true;
         }
     }
-    let sources: Vec<usize> = (0..mesh.positions.len()).filter(|&i| used[i]).collect();
-    let pts: Vec<[f64; 3]> = sources
-        .iter()
-        .map(|&i| mesh.positions[i].to_array())
-        .collect();
-    let tree: ImmutableKdTree<f64, 3> =
-        ImmutableKdTree::new_from_slice(&pts).expect("fewer than 2^32 vertices");
-    let inv2: Vec<f64> = sigmas.iter().map(|s| 1.0 / (2.0 * s * s)).collect();
-    let cut2: Vec<f64> = sigmas.iter().map(|s| 4.0 * s * s).collect();
-    // G(v, σ) for every vertex and every distinct σ.
-    let averages: Vec<Vec<f64>> = mesh
-        .positions
-        .par_iter()
-        .map(|p| {
-            // Summed in the tree's traversal order: fixed for a given tree and query (same
-            // bytes across runs and thread counts), and sorting thousands of hits per vertex
-            // cost a third of MS's time on big meshes.
-            let hits = tree
-                .query(&p.to_array())
-                .within::<SquaredEuclidean<f64>>(max_cutoff * max_cutoff)
-                .unsorted()
-                .execute();
-            let mut num = vec![0.0; sigmas.len()];
-            let mut den = vec![0.0; sigmas.len()];
-            for hit in &hits {
-                let hx = h[sources[hit.item as usize]];
-                for s in (0..sigmas.len()).rev() {
-                    if hit.distance >= cut2[s] {
-                        break; // σ ascending: smaller σ have smaller cutoffs too
-                    }
-                    let w = (-hit.distance * inv2[s]).exp();
-                    num[s] += w * hx;
-                    den[s] += w;
-                }
-            }
-            (0..sigmas.len())
-                .map(|s| if den[s] > 0.0 { num[s] / den[s] } else { 0.0 })
-                .collect()
-        })
-        .collect();
+    let averages = match params.gaussian_sum {
+        GaussianSum::Exact => exact_averages(mesh, &h, &used, &sigmas),
+        GaussianSum::Clustered { cells_per_sigma } => {
+            clustered_averages(mesh, &h, &used, &sigmas, cells_per_sigma)
+        }
+    };
     let index_of = |sigma: f64| {
         sigmas
             .iter()
@@ -135,6 +107,86 @@ pub fn lee_mesh_saliency(mesh: &Mesh, params: &LeeParams) -> (Vec<f64>, LeeRepor
             suppression_mean_of_maxima: suppression,
         },
     )
+}
+
+/// G(v, σ) for every vertex (rows) and every σ (columns), summed exactly.
+fn exact_averages(mesh: &Mesh, h: &[f64], used: &[bool], sigmas: &[f64]) -> Vec<Vec<f64>> {
+    let max_cutoff = 2.0 * sigmas.last().copied().unwrap_or(0.0);
+    let sources: Vec<usize> = (0..mesh.positions.len()).filter(|&i| used[i]).collect();
+    let pts: Vec<[f64; 3]> = sources
+        .iter()
+        .map(|&i| mesh.positions[i].to_array())
+        .collect();
+    let tree: ImmutableKdTree<f64, 3> =
+        ImmutableKdTree::new_from_slice(&pts).expect("fewer than 2^32 vertices");
+    let inv2: Vec<f64> = sigmas.iter().map(|s| 1.0 / (2.0 * s * s)).collect();
+    let cut2: Vec<f64> = sigmas.iter().map(|s| 4.0 * s * s).collect();
+    // G(v, σ) for every vertex and every distinct σ.
+    mesh.positions
+        .par_iter()
+        .map(|p| {
+            // Summed in the tree's traversal order: fixed for a given tree and query (same
+            // bytes across runs and thread counts), and sorting thousands of hits per vertex
+            // cost a third of MS's time on big meshes.
+            let hits = tree
+                .query(&p.to_array())
+                .within::<SquaredEuclidean<f64>>(max_cutoff * max_cutoff)
+                .unsorted()
+                .execute();
+            let mut num = vec![0.0; sigmas.len()];
+            let mut den = vec![0.0; sigmas.len()];
+            for hit in &hits {
+                let hx = h[sources[hit.item as usize]];
+                for s in (0..sigmas.len()).rev() {
+                    if hit.distance >= cut2[s] {
+                        break; // σ ascending: smaller σ have smaller cutoffs too
+                    }
+                    let w = (-hit.distance * inv2[s]).exp();
+                    num[s] += w * hx;
+                    den[s] += w;
+                }
+            }
+            (0..sigmas.len())
+                .map(|s| if den[s] > 0.0 { num[s] / den[s] } else { 0.0 })
+                .collect()
+        })
+        .collect()
+}
+
+/// G(v, σ) for every vertex (rows) and every σ (columns), summed over clusters.
+fn clustered_averages(
+    mesh: &Mesh,
+    h: &[f64],
+    used: &[bool],
+    sigmas: &[f64],
+    cells_per_sigma: f64,
+) -> Vec<Vec<f64>> {
+    let sources: Vec<DVec3> = (0..mesh.positions.len())
+        .filter(|&i| used[i])
+        .map(|i| mesh.positions[i])
+        .collect();
+    let values: Vec<f64> = (0..mesh.positions.len())
+        .filter(|&i| used[i])
+        .map(|i| h[i])
+        .collect();
+    let weights = vec![1.0; sources.len()];
+    let columns: Vec<Vec<Option<f64>>> = sigmas
+        .iter()
+        .map(|&sigma| {
+            clustered_gaussian_average(
+                &sources,
+                &weights,
+                &values,
+                &mesh.positions,
+                sigma,
+                2.0 * sigma,
+                cells_per_sigma,
+            )
+        })
+        .collect();
+    (0..mesh.positions.len())
+        .map(|v| columns.iter().map(|c| c[v].unwrap_or(0.0)).collect())
+        .collect()
 }
 
 /// Mean of the values at local maxima (≥ every 1-ring neighbour, referenced vertices only),
