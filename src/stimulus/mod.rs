@@ -320,9 +320,15 @@ fn render_frames(
     let encoded = std::thread::scope(|scope| -> Result<f64, String> {
         let encoder = scope.spawn(move || -> Result<f64, String> {
             let mut seconds = 0.0;
+            let mut last: Option<Arc<Vec<u8>>> = None;
             for frame in receive {
                 let te = Instant::now();
-                video.push(&frame)?;
+                if last.as_ref().is_some_and(|l| Arc::ptr_eq(l, &frame)) {
+                    video.push_repeat(&frame)?;
+                } else {
+                    video.push(&frame)?;
+                }
+                last = Some(frame);
                 seconds += te.elapsed().as_secs_f64();
             }
             Ok(seconds)

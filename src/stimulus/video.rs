@@ -97,6 +97,20 @@ impl Mp4Writer {
         assert_eq!(rgb.len(), self.width * self.height * 3);
         self.yuv
             .read_rgb8(RgbSliceU8::new(rgb, (self.width, self.height)));
+        self.encode_current(rgb)
+    }
+
+    /// Appends a frame that is the same picture as the last one pushed (`rgb`, kept for the
+    /// decode check): its colour conversion is skipped, and 3 of every 4 frames of a
+    /// stimulus repeat a hold.
+    pub fn push_repeat(&mut self, rgb: &[u8]) -> Result<(), String> {
+        if self.frames == 0 {
+            return self.push(rgb);
+        }
+        self.encode_current(rgb)
+    }
+
+    fn encode_current(&mut self, rgb: &[u8]) -> Result<(), String> {
         let bitstream = self
             .encoder
             .encode(&self.yuv)
