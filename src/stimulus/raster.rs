@@ -19,6 +19,48 @@ pub struct Rasterizer<'a> {
     normals: Vec<DVec3>,
     /// Per-vertex albedo (0–255) replacing the material colour, for rendering maps.
     colors: Option<Vec<[f64; 3]>>,
+    /// For a closed, consistently wound mesh, the sign of the screen-space area of a
+    /// triangle facing the eye: the others are hidden behind the front of the mesh when the
+    /// eye is outside it (as the turntable keeps it), so they are not drawn. None: draw all.
+    front_sign: Option<f64>,
+}
+
+/// The sign a front-facing triangle's screen-space area has (y down), if every edge of the
+/// mesh joins exactly two triangles that run it in opposite directions and the mesh
+/// encloses a volume; None otherwise (open scans, non-manifold or inconsistent winding).
+fn closed_front_sign(mesh: &Mesh) -> Option<f64> {
+    let mut directed: Vec<(u32, u32)> = Vec::with_capacity(mesh.triangles.len() * 3);
+    for t in &mesh.triangles {
+        if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+            return None;
+        }
+        directed.extend([(t[0], t[1]), (t[1], t[2]), (t[2], t[0])]);
+    }
+    directed.par_sort_unstable();
+    if directed.windows(2).any(|w| w[0] == w[1]) {
+        return None; // an edge run twice the same way: inconsistent winding or non-manifold
+    }
+    if !directed
+        .par_iter()
+        .all(|&(a, b)| directed.binary_search(&(b, a)).is_ok())
+    {
+        return None; // a border edge
+    }
+    let volume: f64 = mesh
+        .triangles
+        .iter()
+        .map(|t| {
+            let [a, b, c] = t.map(|i| mesh.positions[i as usize]);
+            a.dot(b.cross(c))
+        })
+        .sum();
+    // Outward winding (positive volume) is counter-clockwise seen from outside, which is
+    // clockwise, negative area, on a y-down screen.
+    if volume.abs() > 0.0 && volume.is_finite() {
+        Some(-volume.signum())
+    } else {
+        None
+    }
 }
 
 #[derive(Clone, Copy)]
@@ -37,8 +79,10 @@ const BAND_PIXEL_ROWS: usize = 8;
 /// The frame's corners on screen (sample units) and its triangles binned by the bands of
 /// `band_rows` sample rows their bounding boxes touch.
 struct Binned {
-    screen: Vec<Option<ScreenVertex>>,
-    bins: Vec<Vec<u32>>,
+    /// Per band, the triangles its rows may cover: their index in the mesh and their
+    /// corners, copied in so a band reads its triangles in one pass (looked up vertex by
+    /// vertex, each triangle cost a cache miss: a fifth of the render time).
+    bins: Vec<Vec<(u32, [ScreenVertex; 3])>>,
 }
 
 impl<'a> Rasterizer<'a> {
@@ -47,7 +91,13 @@ impl<'a> Rasterizer<'a> {
             mesh,
             normals: mesh.vertex_normals(),
             colors: None,
+            front_sign: closed_front_sign(mesh),
         }
+    }
+
+    /// Whether back faces are skipped (a closed mesh).
+    pub fn culls_back_faces(&self) -> bool {
+        self.front_sign.is_some()
     }
 
     /// Paints the mesh with per-vertex colours (interpolated across triangles) instead of
@@ -74,35 +124,34 @@ impl<'a> Rasterizer<'a> {
             })
             .collect();
         let bands = height.div_ceil(band_rows);
-        let mut bins: Vec<Vec<u32>> = vec![Vec::new(); bands];
+        let mut bins: Vec<Vec<(u32, [ScreenVertex; 3])>> = vec![Vec::new(); bands];
         for (t, tri) in self.mesh.triangles.iter().enumerate() {
-            let Some(v) = tri
-                .iter()
-                .map(|&i| screen[i as usize])
-                .collect::<Option<Vec<_>>>()
-            else {
+            let (Some(a), Some(b), Some(c)) = (
+                screen[tri[0] as usize],
+                screen[tri[1] as usize],
+                screen[tri[2] as usize],
+            ) else {
                 continue; // a corner behind the eye: the protocol's framing never does this
             };
-            let ymin = v.iter().map(|s| s.y).fold(f64::INFINITY, f64::min);
-            let ymax = v.iter().map(|s| s.y).fold(f64::NEG_INFINITY, f64::max);
-            let xmin = v.iter().map(|s| s.x).fold(f64::INFINITY, f64::min);
-            let xmax = v.iter().map(|s| s.x).fold(f64::NEG_INFINITY, f64::max);
+            if let Some(front) = self.front_sign {
+                if edge((a.x, a.y), (b.x, b.y), (c.x, c.y)) * front <= 0.0 {
+                    continue; // facing away: hidden behind the front of the closed mesh
+                }
+            }
+            let ymin = a.y.min(b.y).min(c.y);
+            let ymax = a.y.max(b.y).max(c.y);
+            let xmin = a.x.min(b.x).min(c.x);
+            let xmax = a.x.max(b.x).max(c.x);
             if ymax < 0.0 || ymin >= height as f64 || xmax < 0.0 || xmin >= width as f64 {
                 continue;
             }
             let b0 = (ymin.max(0.0) as usize) / band_rows;
             let b1 = ((ymax.min(height as f64 - 1.0)) as usize) / band_rows;
             for bin in bins.iter_mut().take(b1 + 1).skip(b0) {
-                bin.push(t as u32);
+                bin.push((t as u32, [a, b, c]));
             }
         }
-        Binned { screen, bins }
-    }
-
-    /// The corners of binned triangle t on screen.
-    fn corners(&self, binned: &Binned, t: u32) -> [ScreenVertex; 3] {
-        self.mesh.triangles[t as usize]
-            .map(|i| binned.screen[i as usize].expect("binned triangles are in front"))
+        Binned { bins }
     }
 
     /// Triangle index under each pixel centre (no anti-aliasing), BACKGROUND_ID where none.
@@ -117,9 +166,8 @@ impl<'a> Rasterizer<'a> {
                 depth.clear();
                 depth.resize(tri.len(), f32::INFINITY);
                 let rows = tri.len() / width;
-                for &t in &binned.bins[b] {
-                    let v = self.corners(&binned, t);
-                    rasterize_triangle(&v, t, width, b * band_rows, rows, depth, tri);
+                for (t, v) in &binned.bins[b] {
+                    rasterize_triangle(v, *t, width, b * band_rows, rows, depth, tri);
                 }
             });
         ids
@@ -137,46 +185,44 @@ impl<'a> Rasterizer<'a> {
         let light = (cam.orientation * DVec3::from_array(style.light_direction)).normalize();
         let material = style.material.map(|c| c as f64);
         let background = style.background.map(|c| c as f64);
-        // Shade of triangle t at sample-space point (x, y).
-        let shade = |t: u32, x: f64, y: f64| -> [f64; 3] {
-            let [b1, b2] = perspective_barycentrics(&self.corners(&binned, t), (x, y));
-            let b0 = 1.0 - b1 - b2;
-            let idx = self.mesh.triangles[t as usize].map(|k| k as usize);
-            let p = self.mesh.positions[idx[0]] * b0
-                + self.mesh.positions[idx[1]] * b1
-                + self.mesh.positions[idx[2]] * b2;
-            let mut n =
-                (self.normals[idx[0]] * b0 + self.normals[idx[1]] * b1 + self.normals[idx[2]] * b2)
-                    .normalize_or_zero();
-            if n.dot(cam.eye - p) < 0.0 {
-                n = -n; // two-sided: scans with holes show their insides
-            }
-            let intensity = style.ambient + style.diffuse * n.dot(light).max(0.0);
-            let albedo = match &self.colors {
-                Some(c) => {
-                    let (c0, c1, c2) = (c[idx[0]], c[idx[1]], c[idx[2]]);
-                    [0, 1, 2].map(|k| c0[k] * b0 + c1[k] * b1 + c2[k] * b2)
-                }
-                None => material,
-            };
-            albedo.map(|m| m * intensity)
-        };
         let mut rgb = vec![0u8; w * h * 3];
         rgb.par_chunks_mut(BAND_PIXEL_ROWS * w * 3)
             .enumerate()
             .for_each_init(
-                || (Vec::new(), Vec::new()),
-                |(depth, tri), (b, out)| {
+                || (Vec::new(), Vec::new(), Vec::new()),
+                |(depth, tri, setups): &mut (Vec<f32>, Vec<u32>, Vec<Option<ShadingSetup>>),
+                 (b, out)| {
                     let pixel_rows = out.len() / (w * 3);
                     let sample_rows = pixel_rows * s;
                     depth.clear();
                     depth.resize(sample_rows * width, f32::INFINITY);
                     tri.clear();
                     tri.resize(sample_rows * width, BACKGROUND_ID);
-                    for &t in &binned.bins[b] {
-                        let v = self.corners(&binned, t);
-                        rasterize_triangle(&v, t, width, b * band_rows, sample_rows, depth, tri);
+                    // Samples hold the triangle's place in this band's list, whose shading
+                    // setup sits at the same place.
+                    // Set up on first use: half the triangles of a closed mesh face away and
+                    // many others are hidden, so most never shade a pixel.
+                    setups.clear();
+                    let band = &binned.bins[b];
+                    for (local, (_, v)) in band.iter().enumerate() {
+                        rasterize_triangle(
+                            v,
+                            local as u32,
+                            width,
+                            b * band_rows,
+                            sample_rows,
+                            depth,
+                            tri,
+                        );
+                        setups.push(None);
                     }
+                    let mut shade = |local: u32, x: f64, y: f64| -> [f64; 3] {
+                        let st = setups[local as usize].get_or_insert_with(|| {
+                            let (t, v) = &band[local as usize];
+                            self.shading_setup(*t, v, cam.eye)
+                        });
+                        st.shade(x, y, light, style, material)
+                    };
                     for py in 0..pixel_rows {
                         let y = b * BAND_PIXEL_ROWS + py; // pixel row in the frame
                         for x in 0..w {
@@ -211,7 +257,9 @@ impl<'a> Rasterizer<'a> {
                             };
                             let o = (py * w + x) * 3;
                             for k in 0..3 {
-                                out[o + k] = c[k].round().clamp(0.0, 255.0) as u8;
+                                // Round half up (values are never negative): libm's round
+                                // is a call per channel.
+                                out[o + k] = (c[k].clamp(0.0, 255.0) + 0.5) as u8;
                             }
                         }
                     }
@@ -221,19 +269,112 @@ impl<'a> Rasterizer<'a> {
     }
 }
 
-/// Perspective-correct barycentrics of corners 1 and 2 at screen point c.
-fn perspective_barycentrics(v: &[ScreenVertex; 3], c: (f64, f64)) -> [f64; 2] {
-    let p = v.map(|s| (s.x, s.y));
-    // Each edge function divided by the signed area, so inside points weigh positive
-    // whichever way the triangle winds on screen.
-    let area = edge(p[0], p[1], p[2]);
-    let pc: [f64; 3] =
-        std::array::from_fn(|k| edge(p[(k + 1) % 3], p[(k + 2) % 3], c) / area * v[k].inv_w);
-    let sum = pc[0] + pc[1] + pc[2];
-    if sum == 0.0 || !sum.is_finite() {
-        return [1.0 / 3.0, 1.0 / 3.0];
+/// A triangle's shading inputs as planes in screen space, set up once per band. With
+/// q_k = (edge function opposite corner k / area) · (1/w_k), which is affine in screen
+/// space, the perspective-correct barycentrics are q_k / Σq, so any attribute F is
+/// Σ q_k F_k / Σq: numerator and denominator are planes. The normal needs no division (it is
+/// normalized), nor does the sign of n·(eye − p) (Σq > 0 inside). Planes are f32 about the
+/// triangle's first corner, so a pixel costs a few multiply-adds and no vertex lookups.
+struct ShadingSetup {
+    origin: [f64; 2],
+    /// Σq, the normal N (3), eye·Σq − P (3), the vertex colour (3): value at the origin and
+    /// slopes along x and y.
+    planes: [[f32; 3]; 10],
+}
+
+impl ShadingSetup {
+    #[inline]
+    fn shade(
+        &self,
+        x: f64,
+        y: f64,
+        light: DVec3,
+        style: &Rendering,
+        material: [f64; 3],
+    ) -> [f64; 3] {
+        let (dx, dy) = ((x - self.origin[0]) as f32, (y - self.origin[1]) as f32);
+        let at = |k: usize| {
+            let p = self.planes[k];
+            (p[0] + p[1] * dx + p[2] * dy) as f64
+        };
+        let mut n = DVec3::new(at(1), at(2), at(3));
+        let to_eye = DVec3::new(at(4), at(5), at(6));
+        if n.dot(to_eye) < 0.0 {
+            n = -n; // two-sided: scans with holes show their insides
+        }
+        let n = n.normalize_or_zero();
+        let intensity = style.ambient + style.diffuse * n.dot(light).max(0.0);
+        let albedo = if self.planes[7][0].is_nan() {
+            material
+        } else {
+            let sum = at(0);
+            [at(7) / sum, at(8) / sum, at(9) / sum]
+        };
+        albedo.map(|m| m * intensity)
     }
-    [pc[1] / sum, pc[2] / sum]
+}
+
+impl Rasterizer<'_> {
+    fn shading_setup(&self, t: u32, v: &[ScreenVertex; 3], eye: DVec3) -> ShadingSetup {
+        let p = v.map(|s| (s.x, s.y));
+        let origin = [p[0].0 as f32 as f64, p[0].1 as f32 as f64];
+        let area = edge(p[0], p[1], p[2]);
+        let idx = self.mesh.triangles[t as usize].map(|k| k as usize);
+        // q_k = α_k + β_k (x − ox) + γ_k (y − oy).
+        let q: [[f64; 3]; 3] = std::array::from_fn(|k| {
+            let (a, b) = (p[(k + 1) % 3], p[(k + 2) % 3]);
+            let scale = if area != 0.0 { v[k].inv_w / area } else { 0.0 };
+            [
+                edge(a, b, (origin[0], origin[1])) * scale,
+                -(b.1 - a.1) * scale,
+                (b.0 - a.0) * scale,
+            ]
+        });
+        let plane = |f: [f64; 3]| -> [f32; 3] {
+            std::array::from_fn(|c| (0..3).map(|k| q[k][c] * f[k]).sum::<f64>() as f32)
+        };
+        let normals = idx.map(|i| self.normals[i]);
+        let to_eye = idx.map(|i| eye - self.mesh.positions[i]);
+        let mut planes = [[f32::NAN; 3]; 10];
+        planes[0] = plane([1.0; 3]);
+        for c in 0..3 {
+            planes[1 + c] = plane(normals.map(|n| n[c]));
+            planes[4 + c] = plane(to_eye.map(|e| e[c]));
+        }
+        if let Some(colors) = &self.colors {
+            for c in 0..3 {
+                planes[7 + c] = plane(idx.map(|i| colors[i][c]));
+            }
+        }
+        ShadingSetup { origin, planes }
+    }
+}
+
+/// floor and ceil without a libm call per use (x86-64 without SSE4.1 has no rounding
+/// instruction); exact for |x| < 2^52, which screen coordinates are.
+trait FastRound {
+    fn floor_fast(self) -> f64;
+    fn ceil_fast(self) -> f64;
+}
+
+impl FastRound for f64 {
+    #[inline]
+    fn floor_fast(self) -> f64 {
+        if self.is_nan() || self.abs() >= 4.5e15 {
+            return self.floor(); // huge, infinite or NaN: leave it to libm
+        }
+        let t = self as i64 as f64;
+        if t > self {
+            t - 1.0
+        } else {
+            t
+        }
+    }
+
+    #[inline]
+    fn ceil_fast(self) -> f64 {
+        -(-self).floor_fast()
+    }
 }
 
 #[inline]
@@ -270,26 +411,26 @@ fn rasterize_triangle(
         .iter()
         .map(|a| a.0)
         .fold(f64::INFINITY, f64::min)
-        .floor()
+        .floor_fast()
         .max(0.0) as usize;
     let xmax = (q
         .iter()
         .map(|a| a.0)
         .fold(f64::NEG_INFINITY, f64::max)
-        .ceil() as usize)
+        .ceil_fast() as usize)
         .min(width);
     let ymin = (q
         .iter()
         .map(|a| a.1)
         .fold(f64::INFINITY, f64::min)
-        .floor()
+        .floor_fast()
         .max(row0 as f64) as usize)
         .max(row0);
     let ymax = (q
         .iter()
         .map(|a| a.1)
         .fold(f64::NEG_INFINITY, f64::max)
-        .ceil() as usize)
+        .ceil_fast() as usize)
         .min(row0 + rows);
     let tl = [
         is_top_left(q[1], q[2]),
@@ -303,13 +444,34 @@ fn rasterize_triangle(
     // Depth of the reordered corners, scaled by 1/area.
     let zs = order.map(|k| v[k].z / area);
     let x_start = xmin as f64 + 0.5;
+    let inside = |w: [f64; 3]| (0..3).all(|k| w[k] > 0.0 || (w[k] == 0.0 && tl[k]));
     for y in ymin..ymax {
         let c = (x_start, y as f64 + 0.5);
-        let mut w = ends.map(|(a, b)| edge(a, b, c));
+        let w0 = ends.map(|(a, b)| edge(a, b, c));
+        let at = |x: usize| -> [f64; 3] {
+            let off = (x - xmin) as f64;
+            std::array::from_fn(|k| w0[k] + dx[k] * off)
+        };
+        // The row's samples inside form one run: bound it from the edge equations, then
+        // let the exact test decide the samples at its ends.
+        let (mut lo, mut hi) = (xmin as f64, xmax as f64);
+        for k in 0..3 {
+            if dx[k] > 0.0 {
+                lo = lo.max(xmin as f64 + (-w0[k] / dx[k]).floor_fast() - 1.0);
+            } else if dx[k] < 0.0 {
+                hi = hi.min(xmin as f64 + (-w0[k] / dx[k]).ceil_fast() + 2.0);
+            } else if w0[k] < 0.0 || (w0[k] == 0.0 && !tl[k]) {
+                hi = lo; // parallel to the row and outside: no sample
+            }
+        }
+        if lo >= hi || lo.is_nan() || hi.is_nan() {
+            continue;
+        }
+        let (lo, hi) = (lo as usize, (hi as usize).min(xmax));
         let row = (y - row0) * width;
-        for x in xmin..xmax {
-            let inside = (0..3).all(|k| w[k] > 0.0 || (w[k] == 0.0 && tl[k]));
-            if inside {
+        for x in lo..hi {
+            let w = at(x);
+            if inside(w) {
                 let z = w[0] * zs[0] + w[1] * zs[1] + w[2] * zs[2];
                 let i = row + x;
                 if (z as f32) < depth[i] {
@@ -317,9 +479,61 @@ fn rasterize_triangle(
                     tri[i] = t;
                 }
             }
-            for k in 0..3 {
-                w[k] += dx[k];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::mean_curvature::test_meshes::icosphere;
+    use crate::stimulus::camera::CameraPlan;
+    use crate::stimulus::protocol::Protocol;
+
+    fn ids_and_frame(mesh: &Mesh, cull: bool, view: usize) -> (Vec<u32>, Vec<u8>) {
+        let (protocol, _) = Protocol::builtin();
+        let plan = CameraPlan::new(mesh, &protocol).unwrap();
+        let cam = plan.at(view as f64 * (protocol.timing.hold_s + protocol.timing.move_s));
+        let mut raster = Rasterizer::new(mesh);
+        if !cull {
+            raster.front_sign = None;
+        }
+        (
+            raster.triangle_ids(&cam),
+            raster.render(&cam, &protocol.rendering),
+        )
+    }
+
+    /// On a closed mesh seen from outside, skipping the triangles that face away changes no
+    /// pixel and no triangle id, whichever way the mesh is wound.
+    #[test]
+    fn culling_back_faces_of_a_closed_mesh_changes_nothing() {
+        let mut sphere = icosphere(1.0, 3);
+        // Dents make parts of the front hide others, so depth order matters too.
+        for (i, p) in sphere.positions.iter_mut().enumerate() {
+            *p *= 1.0 + 0.15 * ((i * 7919) % 5) as f64 / 5.0;
+        }
+        let mut inverted = sphere.clone();
+        inverted.triangles.iter_mut().for_each(|t| t.swap(1, 2));
+        for mesh in [&sphere, &inverted] {
+            assert!(Rasterizer::new(mesh).culls_back_faces());
+            for view in [0, 5] {
+                let (ids_all, frame_all) = ids_and_frame(mesh, false, view);
+                let (ids_culled, frame_culled) = ids_and_frame(mesh, true, view);
+                assert!(ids_all.iter().any(|&t| t != BACKGROUND_ID));
+                assert!(ids_all == ids_culled, "triangle ids differ (view {view})");
+                assert!(frame_all == frame_culled, "pixels differ (view {view})");
             }
         }
+    }
+
+    #[test]
+    fn open_or_inconsistent_meshes_draw_every_triangle() {
+        let mut open = icosphere(1.0, 2);
+        open.triangles.pop();
+        assert!(!Rasterizer::new(&open).culls_back_faces());
+        let mut flipped_one = icosphere(1.0, 2);
+        flipped_one.triangles[0].swap(1, 2);
+        assert!(!Rasterizer::new(&flipped_one).culls_back_faces());
     }
 }
