@@ -10,12 +10,23 @@ use rayon::prelude::*;
 use super::camera::CameraState;
 use super::protocol::Rendering;
 use crate::mesh::Mesh;
+use std::marker::PhantomData;
 
 pub const BACKGROUND_ID: u32 = u32::MAX;
 
-/// A mesh prepared for rendering: positions and area-weighted vertex normals.
+/// A mesh prepared for rendering: positions and area-weighted vertex normals, with its
+/// triangles in Morton order of their centroids and its vertices in order of first use, so
+/// the triangles a band of screen rows meets, and their corners, sit close in memory (in the
+/// file's order, looking them up cost a cache miss per triangle). Triangle ids given out are
+/// the mesh's own.
 pub struct Rasterizer<'a> {
-    mesh: &'a Mesh,
+    mesh: PhantomData<&'a Mesh>,
+    /// Reordered triangles, over reordered vertices.
+    triangles: Vec<[u32; 3]>,
+    /// The mesh's index of each reordered triangle and vertex.
+    original_triangle: Vec<u32>,
+    original_vertex: Vec<u32>,
+    positions: Vec<DVec3>,
     normals: Vec<DVec3>,
     /// Per-vertex albedo (0–255) replacing the material colour, for rendering maps.
     colors: Option<Vec<[f64; 3]>>,
@@ -87,9 +98,56 @@ struct Binned {
 
 impl<'a> Rasterizer<'a> {
     pub fn new(mesh: &'a Mesh) -> Rasterizer<'a> {
+        let normals = mesh.vertex_normals();
+        let (lo, hi) = mesh
+            .referenced_bounds()
+            .unwrap_or((DVec3::ZERO, DVec3::ONE));
+        let extent = (hi - lo).max(DVec3::splat(1e-300));
+        let mut keyed: Vec<(u32, u32)> = mesh
+            .triangles
+            .par_iter()
+            .enumerate()
+            .map(|(t, tri)| {
+                let c = tri
+                    .iter()
+                    .map(|&i| mesh.positions[i as usize])
+                    .sum::<DVec3>()
+                    / 3.0;
+                let cell = ((c - lo) / extent * 1023.0).clamp(DVec3::ZERO, DVec3::splat(1023.0));
+                (
+                    morton3(cell.x as u32, cell.y as u32, cell.z as u32),
+                    t as u32,
+                )
+            })
+            .collect();
+        keyed.par_sort_unstable();
+        let mut new_index = vec![u32::MAX; mesh.positions.len()];
+        let mut original_vertex = Vec::new();
+        let triangles: Vec<[u32; 3]> = keyed
+            .iter()
+            .map(|&(_, t)| {
+                mesh.triangles[t as usize].map(|i| {
+                    if new_index[i as usize] == u32::MAX {
+                        new_index[i as usize] = original_vertex.len() as u32;
+                        original_vertex.push(i);
+                    }
+                    new_index[i as usize]
+                })
+            })
+            .collect();
         Rasterizer {
-            mesh,
-            normals: mesh.vertex_normals(),
+            mesh: PhantomData,
+            triangles,
+            original_triangle: keyed.iter().map(|&(_, t)| t).collect(),
+            positions: original_vertex
+                .iter()
+                .map(|&i| mesh.positions[i as usize])
+                .collect(),
+            normals: original_vertex
+                .iter()
+                .map(|&i| normals[i as usize])
+                .collect(),
+            original_vertex,
             colors: None,
             front_sign: closed_front_sign(mesh),
         }
@@ -103,14 +161,18 @@ impl<'a> Rasterizer<'a> {
     /// Paints the mesh with per-vertex colours (interpolated across triangles) instead of
     /// the protocol's material; None restores the material.
     pub fn set_vertex_colors(&mut self, colors: Option<Vec<[u8; 3]>>) {
-        self.colors = colors.map(|c| c.iter().map(|v| v.map(|x| x as f64)).collect());
+        self.colors = colors.map(|c| {
+            self.original_vertex
+                .iter()
+                .map(|&i| c[i as usize].map(|x| x as f64))
+                .collect()
+        });
     }
 
     fn bin(&self, cam: &CameraState, width: usize, height: usize, band_rows: usize) -> Binned {
         let vp = cam.view_projection();
         let (sx, sy) = (width as f64 * 0.5, height as f64 * 0.5);
         let screen: Vec<Option<ScreenVertex>> = self
-            .mesh
             .positions
             .par_iter()
             .map(|p| {
@@ -125,7 +187,7 @@ impl<'a> Rasterizer<'a> {
             .collect();
         let bands = height.div_ceil(band_rows);
         let mut bins: Vec<Vec<(u32, [ScreenVertex; 3])>> = vec![Vec::new(); bands];
-        for (t, tri) in self.mesh.triangles.iter().enumerate() {
+        for (t, tri) in self.triangles.iter().enumerate() {
             let (Some(a), Some(b), Some(c)) = (
                 screen[tri[0] as usize],
                 screen[tri[1] as usize],
@@ -168,6 +230,9 @@ impl<'a> Rasterizer<'a> {
                 let rows = tri.len() / width;
                 for (t, v) in &binned.bins[b] {
                     rasterize_triangle(v, *t, width, b * band_rows, rows, depth, tri);
+                }
+                for id in tri.iter_mut().filter(|id| **id != BACKGROUND_ID) {
+                    *id = self.original_triangle[*id as usize];
                 }
             });
         ids
@@ -319,7 +384,7 @@ impl Rasterizer<'_> {
         let p = v.map(|s| (s.x, s.y));
         let origin = [p[0].0 as f32 as f64, p[0].1 as f32 as f64];
         let area = edge(p[0], p[1], p[2]);
-        let idx = self.mesh.triangles[t as usize].map(|k| k as usize);
+        let idx = self.triangles[t as usize].map(|k| k as usize);
         // q_k = α_k + β_k (x − ox) + γ_k (y − oy).
         let q: [[f64; 3]; 3] = std::array::from_fn(|k| {
             let (a, b) = (p[(k + 1) % 3], p[(k + 2) % 3]);
@@ -334,7 +399,7 @@ impl Rasterizer<'_> {
             std::array::from_fn(|c| (0..3).map(|k| q[k][c] * f[k]).sum::<f64>() as f32)
         };
         let normals = idx.map(|i| self.normals[i]);
-        let to_eye = idx.map(|i| eye - self.mesh.positions[i]);
+        let to_eye = idx.map(|i| eye - self.positions[i]);
         let mut planes = [[f32::NAN; 3]; 10];
         planes[0] = plane([1.0; 3]);
         for c in 0..3 {
@@ -348,6 +413,18 @@ impl Rasterizer<'_> {
         }
         ShadingSetup { origin, planes }
     }
+}
+
+/// Interleaves the low 10 bits of x, y and z.
+fn morton3(x: u32, y: u32, z: u32) -> u32 {
+    fn spread(v: u32) -> u32 {
+        let mut v = v & 0x3ff;
+        v = (v | (v << 16)) & 0x0300_00ff;
+        v = (v | (v << 8)) & 0x0300_f00f;
+        v = (v | (v << 4)) & 0x030c_30c3;
+        (v | (v << 2)) & 0x0924_9249
+    }
+    spread(x) | (spread(y) << 1) | (spread(z) << 2)
 }
 
 /// floor and ceil without a libm call per use (x86-64 without SSE4.1 has no rounding
