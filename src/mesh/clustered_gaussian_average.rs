@@ -200,7 +200,7 @@ pub fn clustered_gaussian_average(
     // Targets are handled in cells that share one candidate list: the clusters within R plus
     // the cell's half-diagonal of its centre. Small cells waste fewer candidates, but each
     // cell costs a gather, so a cell should hold several targets: side R/4 unless sparse
-    // data leave fewer than eight sources per occupied cell, then R/2, then R.
+    // data leave fewer than 24 sources per occupied cell, then R/2, then R.
     let g = [0.25, 0.5]
         .into_iter()
         .map(|f| f * cutoff)
@@ -209,7 +209,7 @@ pub fn clustered_gaussian_average(
                 sources.par_iter().map(|p| cell_of(*p, origin, g)).collect();
             keys.par_sort_unstable();
             keys.dedup();
-            sources.len() >= 8 * keys.len()
+            sources.len() >= 24 * keys.len()
         })
         .unwrap_or(cutoff);
     let fine_per_coarse = (g / h).ceil().max(1.0) as i64;
