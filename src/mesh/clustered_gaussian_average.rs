@@ -186,7 +186,14 @@ pub fn clustered_gaussian_average(
     cells_per_sigma: f64,
 ) -> Vec<Option<f64>> {
     assert!(sources.len() == weights.len() && sources.len() == values.len());
-    if sources.is_empty() || targets.is_empty() {
+    let usable = |x: f64| x > 0.0 && x.is_finite();
+    if sources.is_empty()
+        || targets.is_empty()
+        || !usable(sigma)
+        || !usable(cutoff)
+        || !usable(cells_per_sigma)
+    {
+        // No kernel to sum with (a mesh of zero extent has σ = 0): nothing is in reach.
         return vec![None; targets.len()];
     }
     // Coordinates relative to the sources' centre keep f32 differences accurate.
