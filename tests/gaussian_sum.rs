@@ -8,6 +8,14 @@ use meshgaze::mesh::geometry::pearson;
 use meshgaze::mesh::{load_mesh, Mesh};
 use meshgaze::saliency::lee_mesh_saliency::{lee_mesh_saliency, LeeParams};
 
+/// Pearson, largest and mean absolute difference of two maps.
+fn differences(exact: &[f64], fast: &[f64]) -> (f64, f64, f64) {
+    let abs: Vec<f64> = exact.iter().zip(fast).map(|(a, b)| (a - b).abs()).collect();
+    let max = abs.iter().copied().fold(0.0, f64::max);
+    let mean = abs.iter().sum::<f64>() / abs.len() as f64;
+    (pearson(exact, fast), max, mean)
+}
+
 /// MS with the exact and the clustered sums: (Pearson, max |Δ|, mean |Δ|) of the two maps.
 fn compare_ms(name: &str, mesh: &Mesh) -> (f64, f64, f64) {
     let cells = match LeeParams::default().gaussian_sum {
@@ -21,27 +29,10 @@ fn compare_ms(name: &str, mesh: &Mesh) -> (f64, f64, f64) {
     let t = Instant::now();
     let (exact, _) = lee_mesh_saliency(mesh, &exact_params);
     let te = t.elapsed().as_secs_f64();
-    let params = LeeParams {
-        gaussian_sum: GaussianSum::Clustered {
-            cells_per_sigma: cells,
-        },
-        ..LeeParams::default()
-    };
     let t = Instant::now();
-    let (fast, _) = lee_mesh_saliency(mesh, &params);
+    let (fast, _) = lee_mesh_saliency(mesh, &LeeParams::default());
     let tf = t.elapsed().as_secs_f64();
-    let r = pearson(&exact, &fast);
-    let max = exact
-        .iter()
-        .zip(&fast)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
-    let mean = exact
-        .iter()
-        .zip(&fast)
-        .map(|(a, b)| (a - b).abs())
-        .sum::<f64>()
-        / exact.len() as f64;
+    let (r, max, mean) = differences(&exact, &fast);
     eprintln!("MS {name}, {cells} cells per σ: Pearson {r:.6}, max |Δ| {max:.2e}, mean |Δ| {mean:.2e} (exact {te:.2} s, clustered {tf:.2} s)");
     (r, max, mean)
 }
@@ -58,26 +49,10 @@ fn compare_si(name: &str, mesh: &Mesh) -> (f64, f64) {
     )
     .unwrap()
     .0;
-    let fast = spectral_irregularity(
-        mesh,
-        &SpectralParams {
-            ..SpectralParams::default()
-        },
-    )
-    .unwrap()
-    .0;
-    let r = pearson(&exact, &fast);
-    let max = exact
-        .iter()
-        .zip(&fast)
-        .map(|(a, b)| (a - b).abs())
-        .fold(0.0, f64::max);
-    let mean = exact
-        .iter()
-        .zip(&fast)
-        .map(|(a, b)| (a - b).abs())
-        .sum::<f64>()
-        / exact.len() as f64;
+    let fast = spectral_irregularity(mesh, &SpectralParams::default())
+        .unwrap()
+        .0;
+    let (r, max, mean) = differences(&exact, &fast);
     eprintln!("SI {name}: Pearson {r:.8}, max |Δ| {max:.2e}, mean |Δ| {mean:.2e}");
     (max, mean)
 }

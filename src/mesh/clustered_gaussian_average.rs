@@ -61,21 +61,15 @@ struct Cluster {
 #[derive(Default)]
 struct Candidates {
     cols: Vec<[f32; LANES]>,
-    chunks: usize,
 }
 
 const COLS: usize = 16;
 
 impl Candidates {
-    fn clear(&mut self) {
-        self.cols.clear();
-        self.chunks = 0;
-    }
-
     fn push_all(&mut self, list: &[Cluster]) {
-        self.clear();
-        self.chunks = list.len().div_ceil(LANES);
-        self.cols.resize(self.chunks * COLS, [0.0; LANES]);
+        let chunks = list.len().div_ceil(LANES);
+        self.cols.clear();
+        self.cols.resize(chunks * COLS, [0.0; LANES]);
         for (i, k) in list.iter().enumerate() {
             let (chunk, lane) = (i / LANES, i % LANES);
             let base = chunk * COLS;
@@ -88,7 +82,7 @@ impl Candidates {
             }
         }
         // Padding lanes sit far away: outside every cutoff, and exp never sees them.
-        for i in list.len()..self.chunks * LANES {
+        for i in list.len()..chunks * LANES {
             let (chunk, lane) = (i / LANES, i % LANES);
             for col in 0..3 {
                 self.cols[chunk * COLS + col][lane] = 1.0e18;
