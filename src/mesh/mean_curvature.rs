@@ -187,33 +187,60 @@ pub fn mean_curvature_with(
         .map(|t| triangle_terms(mesh.triangle(t)))
         .collect();
     // Each vertex gathers its triangles' terms in triangle order: the sums a sequential
-    // scatter over triangles makes, bit for bit, on any number of threads.
-    let interior: Vec<(f64, bool)> = (0..n)
+    // scatter over triangles makes, bit for bit, on any number of threads. The same walk over
+    // its triangles tells whether it sits on a boundary edge. Vertices are visited in the
+    // order of their first triangle, so neighbouring visits read neighbouring triangles,
+    // positions and terms from cache (the results do not depend on the visiting order).
+    let mut order: Vec<(u32, u32)> = (0..n)
         .into_par_iter()
         .map(|v| {
+            let first = incidence
+                .of_vertex(v)
+                .next()
+                .map_or(u32::MAX, |(t, _)| t as u32);
+            (first, v as u32)
+        })
+        .collect();
+    order.par_sort_unstable();
+    let visited: Vec<(f64, bool, bool)> = order
+        .par_iter()
+        .map_init(Vec::new, |partners, &(_, v)| {
+            let v = v as usize;
             let mut laplace = DVec3::ZERO;
             let mut area = 0.0;
             let mut normal = DVec3::ZERO;
+            partners.clear();
             for (t, k) in incidence.of_vertex(v) {
-                let p = mesh.triangle(t);
+                let tri = mesh.triangles[t];
+                let p = tri.map(|i| mesh.positions[i as usize]);
                 let (c, areas) = terms[t];
                 let [first, second] = corner_laplace_terms(p, c, k);
                 laplace += first;
                 laplace += second;
                 area += areas[k];
                 normal += (p[1] - p[0]).cross(p[2] - p[0]);
+                partners.push(tri[(k + 1) % 3]);
+                partners.push(tri[(k + 2) % 3]);
             }
+            partners.sort_unstable();
+            let on_boundary = partners.chunk_by(|a, b| a == b).any(|run| run.len() == 1);
             if area <= 0.0 {
-                return (0.0, false);
+                return (0.0, false, on_boundary);
             }
             let k = laplace / (2.0 * area);
             (
                 0.5 * k.length() * k.dot(normal.normalize_or_zero()).signum(),
                 true,
+                on_boundary,
             )
         })
         .collect();
-    let boundary = boundary_vertices_from(mesh, incidence);
+    let mut interior = vec![(0.0, false); n];
+    let mut boundary = vec![false; n];
+    for (&(_, v), &(h, has_area, on_boundary)) in order.iter().zip(&visited) {
+        interior[v as usize] = (h, has_area);
+        boundary[v as usize] = on_boundary;
+    }
     let mut report = CurvatureReport {
         vertices_without_area: interior.iter().filter(|(_, has_area)| !has_area).count(),
         boundary_vertices: boundary.iter().filter(|&&b| b).count(),
