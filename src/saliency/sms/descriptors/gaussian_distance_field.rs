@@ -839,7 +839,10 @@ mod tests {
             zero += fast.iter().filter(|&&v| v == 0.0).count();
         }
         // Both kinds of lanes were exercised: reads of the field and reads outside the grid.
-        assert!(nonzero > 200 && zero > 100, "{nonzero} non-zero, {zero} zero");
+        assert!(
+            nonzero > 200 && zero > 100,
+            "{nonzero} non-zero, {zero} zero"
+        );
     }
 
     #[test]
