@@ -313,26 +313,33 @@ fn render_frames(
     let mut cached: Option<(usize, Arc<Vec<u8>>)> = None; // (viewpoint, image) of the current hold
     let overlays = protocol.sync.photodiode || protocol.sync.frame_counter;
     progress.start("rendering + encoding", n_frames as u64);
-    // The encoder runs on its own thread, a few frames behind the renderer: it takes frames
-    // in order, so the video is the same bytes as when one thread did both, and the wall
-    // time is about the larger of the two instead of their sum.
-    let (send, receive) = std::sync::mpsc::sync_channel::<Arc<Vec<u8>>>(4);
+    // The encoder runs on its own thread behind the renderer: it takes frames in order, so
+    // the video is the same bytes as when one thread did both, and the wall time is about the
+    // larger of the two instead of their sum. A hold repeats one image (the same Arc), so the
+    // queue bounds only distinct images: the renderer can run a whole transition ahead while
+    // the encoder works through a hold (with a queue of 4 frames it sat idle for most of each
+    // hold, then the encoder waited on it through the transition).
+    let in_flight = InFlight::new(IN_FLIGHT_IMAGES);
+    let (send, receive) = std::sync::mpsc::channel::<(Arc<Vec<u8>>, bool)>();
     let encoded = std::thread::scope(|scope| -> Result<f64, String> {
+        let in_flight = &in_flight;
         let encoder = scope.spawn(move || -> Result<f64, String> {
+            // Whatever way this thread ends, the renderer must not wait for it any more.
+            let _closing = in_flight.close_on_drop();
             let mut seconds = 0.0;
-            let mut last: Option<Arc<Vec<u8>>> = None;
-            for frame in receive {
+            for (frame, distinct) in receive {
                 let te = Instant::now();
-                if last.as_ref().is_some_and(|l| Arc::ptr_eq(l, &frame)) {
-                    video.push_repeat(&frame)?;
-                } else {
+                if distinct {
                     video.push(&frame)?;
+                    in_flight.release();
+                } else {
+                    video.push_repeat(&frame)?;
                 }
-                last = Some(frame);
                 seconds += te.elapsed().as_secs_f64();
             }
             Ok(seconds)
         });
+        let mut last_sent: Option<Arc<Vec<u8>>> = None;
         let rendering = (|| -> Result<(), String> {
             for i in 0..n_frames {
                 let cam = plan.at(i as f64 / fps as f64);
@@ -375,8 +382,14 @@ fn render_frames(
                         &frames_dir.join(format!("ids_{i:05}.png")),
                     )?;
                 }
-                if send.send(frame).is_err() {
-                    // The encoder stopped: its own error is the one to report.
+                let distinct = !last_sent.as_ref().is_some_and(|l| Arc::ptr_eq(l, &frame));
+                // A distinct image waits for room; false: the encoder stopped, and its own
+                // error is the one to report.
+                if distinct && !in_flight.acquire() {
+                    break;
+                }
+                last_sent = Some(frame.clone());
+                if send.send((frame, distinct)).is_err() {
                     break;
                 }
                 progress.advance(1);
@@ -396,6 +409,59 @@ fn render_frames(
     Ok(counts)
 }
 
+/// Distinct images the renderer may have queued for the encoder: 32 at 1680x1050 is 170 MB,
+/// room for a whole 1 s transition at 30 fps.
+const IN_FLIGHT_IMAGES: usize = 32;
+
+/// A counting semaphore for the images in the queue, which the encoder closes when it ends
+/// (done, failed or panicked) so the renderer never waits on it forever.
+struct InFlight {
+    state: std::sync::Mutex<(usize, bool)>,
+    changed: std::sync::Condvar,
+    limit: usize,
+}
+
+impl InFlight {
+    fn new(limit: usize) -> InFlight {
+        InFlight {
+            state: std::sync::Mutex::new((0, false)),
+            changed: std::sync::Condvar::new(),
+            limit,
+        }
+    }
+
+    /// Waits for room for one more image; false once the encoder has closed.
+    fn acquire(&self) -> bool {
+        let mut state = self.state.lock().unwrap_or_else(|e| e.into_inner());
+        while state.0 >= self.limit && !state.1 {
+            state = self.changed.wait(state).unwrap_or_else(|e| e.into_inner());
+        }
+        if state.1 {
+            return false;
+        }
+        state.0 += 1;
+        true
+    }
+
+    fn release(&self) {
+        let mut state = self.state.lock().unwrap_or_else(|e| e.into_inner());
+        state.0 = state.0.saturating_sub(1);
+        self.changed.notify_all();
+    }
+
+    fn close_on_drop(&self) -> impl Drop + '_ {
+        struct Close<'a>(&'a InFlight);
+        impl Drop for Close<'_> {
+            fn drop(&mut self) {
+                let mut state = self.0.state.lock().unwrap_or_else(|e| e.into_inner());
+                state.1 = true;
+                self.0.changed.notify_all();
+            }
+        }
+        Close(self)
+    }
+}
+
 /// The triangle under each pixel as a PNG: 24-bit id + 1 in RGB (0 = background), exact for
 /// up to 16.7 million triangles.
 fn save_id_buffer(raster: &mut Rasterizer, cam: &CameraState, path: &Path) -> Result<(), String> {
@@ -413,4 +479,32 @@ fn save_id_buffer(raster: &mut Rasterizer, cam: &CameraState, path: &Path) -> Re
 /// Where a stimulus folder keeps its files.
 pub fn manifest_path(dir: &Path) -> PathBuf {
     dir.join("manifest.json")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::InFlight;
+
+    #[test]
+    fn queue_room_frees_on_release_and_never_blocks_after_the_encoder_ends() {
+        let q = InFlight::new(2);
+        assert!(q.acquire() && q.acquire());
+        std::thread::scope(|s| {
+            // The third image waits until the encoder has taken one.
+            let waiting = s.spawn(|| q.acquire());
+            std::thread::sleep(std::time::Duration::from_millis(50));
+            assert!(!waiting.is_finished());
+            q.release();
+            assert!(waiting.join().unwrap());
+        });
+        // The queue is full again; the encoder ending (here: its guard dropped) wakes the
+        // renderer with "stop" instead of leaving it waiting.
+        std::thread::scope(|s| {
+            let waiting = s.spawn(|| q.acquire());
+            std::thread::sleep(std::time::Duration::from_millis(50));
+            drop(q.close_on_drop());
+            assert!(!waiting.join().unwrap());
+        });
+        assert!(!q.acquire());
+    }
 }
