@@ -134,7 +134,9 @@ impl GridField {
     #[inline]
     fn trilinear(&self, u: glam::Vec3) -> f32 {
         let limit = (self.resolution - 1) as f32;
-        if !(u.min_element() >= 0.0 && u.max_element() < limit) {
+        // Each coordinate compared on its own, as the AVX2 path does: a NaN fails (glam's
+        // min_element would pass over it).
+        if !(u.x >= 0.0 && u.y >= 0.0 && u.z >= 0.0 && u.x < limit && u.y < limit && u.z < limit) {
             return 0.0;
         }
         // SAFETY: 0 <= u < resolution - 1 <= 1023 was just checked (NaN fails it too), so
