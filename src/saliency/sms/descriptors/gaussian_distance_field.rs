@@ -801,9 +801,9 @@ mod tests {
         }
     }
 
-    #[test]
-    fn simd_sphere_reads_match_the_scalar_path_to_the_bit() {
-        let mesh = Mesh {
+    /// A unit-ish tetrahedron, small enough for the exact field.
+    fn tetrahedron() -> Mesh {
+        Mesh {
             positions: vec![
                 DVec3::new(0.5, 0.1, -0.3),
                 DVec3::new(-0.4, 0.3, -0.2),
@@ -811,7 +811,12 @@ mod tests {
                 DVec3::new(0.05, 0.05, 0.6),
             ],
             triangles: vec![[0, 1, 2], [0, 3, 1], [1, 3, 2], [2, 3, 0]],
-        };
+        }
+    }
+
+    #[test]
+    fn simd_sphere_reads_match_the_scalar_path_to_the_bit() {
+        let mesh = tetrahedron();
         let grid = GridField::build(&mesh, 0.1, GridParams::default()).unwrap();
         let directions: Vec<glam::Vec3> = (0..203)
             .map(|i| {
@@ -849,16 +854,8 @@ mod tests {
 
     #[test]
     fn grid_field_agrees_with_exact_field() {
-        // A unit-ish tetrahedron: compare the grid to the exact field at random points.
-        let mesh = Mesh {
-            positions: vec![
-                DVec3::new(0.5, 0.1, -0.3),
-                DVec3::new(-0.4, 0.3, -0.2),
-                DVec3::new(0.0, -0.5, 0.1),
-                DVec3::new(0.05, 0.05, 0.6),
-            ],
-            triangles: vec![[0, 1, 2], [0, 3, 1], [1, 3, 2], [2, 3, 0]],
-        };
+        // Compare the grid to the exact field at random points.
+        let mesh = tetrahedron();
         let grid = GridField::build(
             &mesh,
             0.1,

@@ -194,7 +194,28 @@ impl Projector {
         }
     }
 
-    /// The longitude moments of every ring when they fit 16 lanes (8 bands: 15 moments).
+    /// The longitude moments of every ring: for each ring, Σ_j sample_j · trig_j over its
+    /// samples in order, into `moments_buf[ring · stride..]`.
+    fn ring_moments(&self, samples: &[f32], moments_buf: &mut [f32]) {
+        let moments = self.stride;
+        for r in 0..self.rings {
+            let acc = &mut moments_buf[r * moments..(r + 1) * moments];
+            acc.fill(0.0);
+            let ring = &samples[r * self.longitudes..(r + 1) * self.longitudes];
+            for (s, row) in ring.iter().zip(self.trig.chunks_exact(moments)) {
+                // Fixed-width blocks of 8: the compiler turns each into SIMD multiply-adds.
+                for (a8, t8) in acc.chunks_exact_mut(8).zip(row.chunks_exact(8)) {
+                    let a8: &mut [f32; 8] = a8.try_into().expect("8 wide");
+                    let t8: &[f32; 8] = t8.try_into().expect("8 wide");
+                    for k in 0..8 {
+                        a8[k] += s * t8[k];
+                    }
+                }
+            }
+        }
+    }
+
+    /// [`Projector::ring_moments`] when the moments fit 16 lanes (8 bands: 15 moments).
     /// Each ring's sums run over its samples in order, as in the general loop, so the bits
     /// are the same; but four rings at a time are kept in registers, so the four dependency
     /// chains overlap and the sums never round-trip through memory (the general loop stores
@@ -249,21 +270,7 @@ impl Projector {
         if moments == 16 {
             self.ring_moments_16(samples, moments_buf);
         } else {
-            for r in 0..self.rings {
-                let acc = &mut moments_buf[r * moments..(r + 1) * moments];
-                acc.fill(0.0);
-                let ring = &samples[r * self.longitudes..(r + 1) * self.longitudes];
-                for (s, row) in ring.iter().zip(self.trig.chunks_exact(moments)) {
-                    // Fixed-width blocks of 8: the compiler turns each into SIMD multiply-adds.
-                    for (a8, t8) in acc.chunks_exact_mut(8).zip(row.chunks_exact(8)) {
-                        let a8: &mut [f32; 8] = a8.try_into().expect("8 wide");
-                        let t8: &[f32; 8] = t8.try_into().expect("8 wide");
-                        for k in 0..8 {
-                            a8[k] += s * t8[k];
-                        }
-                    }
-                }
-            }
+            self.ring_moments(samples, moments_buf);
         }
         for (l, energy) in energies.iter_mut().enumerate().take(self.bands) {
             let mut e = 0.0f64;
@@ -421,6 +428,29 @@ fn describe_one<F: GaussianField>(
             if norm > 0.0 {
                 block.iter_mut().for_each(|v| *v /= norm);
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn register_blocked_ring_moments_match_the_general_loop_to_the_bit() {
+        // 8 bands give 16 moment lanes; ring counts that do and do not divide by four.
+        for rings in [8, 13, 24] {
+            let p = Projector::new(rings, 8);
+            assert_eq!(p.stride, 16);
+            let samples: Vec<f32> = (0..p.directions.len())
+                .map(|i| ((i as f32 * 0.618).sin() * 3.0).exp())
+                .collect();
+            let mut general = vec![f32::NAN; rings * 16];
+            let mut blocked = vec![f32::NAN; rings * 16];
+            p.ring_moments(&samples, &mut general);
+            p.ring_moments_16(&samples, &mut blocked);
+            let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&general), bits(&blocked), "{rings} rings");
         }
     }
 }
