@@ -110,7 +110,7 @@ fn vertices_project_onto_pixels_of_their_own_triangles() {
     p.display.height_px = 526;
     let mesh = common::bunny_res3();
     let plan = CameraPlan::new(&mesh, &p).unwrap();
-    let mut raster = Rasterizer::new(&mesh);
+    let raster = Rasterizer::new(&mesh);
     let (mut checked, mut agree) = (0usize, 0usize);
     for v in 0..p.viewpoints.count {
         let cam = plan.at(4.0 * v as f64 + 1.0);
@@ -301,4 +301,108 @@ fn detector_settings_live_in_the_protocol_and_convert_degrees_to_pixels() {
         .collect();
     let q = Protocol::from_toml(&old, "old.toml").unwrap();
     assert_eq!(q.fixations.idt_max_dispersion_px, 100.0);
+}
+
+/// The access units of an MP4's single H.264 track, in Annex B, parameter sets first: the
+/// avcC box's SPS and PPS, then every length-prefixed NAL unit of mdat (enough of the format
+/// for files this crate writes: one track, its samples back to back in one mdat).
+fn annexb_of_mp4(mp4: &[u8]) -> Vec<u8> {
+    let find = |tag: &[u8]| mp4.windows(4).position(|w| w == tag).expect("box") + 4;
+    let c = find(b"avcC");
+    let length_size = (mp4[c + 4] & 3) as usize + 1;
+    let mut out = Vec::new();
+    let mut put = |nal: &[u8]| {
+        out.extend_from_slice(&[0, 0, 0, 1]);
+        out.extend_from_slice(nal);
+    };
+    let mut at = c + 5;
+    for _ in 0..2 {
+        // SPS then PPS: a count, then (16-bit length, bytes) each.
+        let count = (mp4[at] & 0x1f) as usize;
+        at += 1;
+        for _ in 0..count {
+            let len = u16::from_be_bytes([mp4[at], mp4[at + 1]]) as usize;
+            put(&mp4[at + 2..at + 2 + len]);
+            at += 2 + len;
+        }
+    }
+    let m = find(b"mdat");
+    let end = u32::from_be_bytes(mp4[m - 8..m - 4].try_into().unwrap()) as usize + m - 8;
+    let mut at = m;
+    while at + length_size <= end {
+        let len = mp4[at..at + length_size]
+            .iter()
+            .fold(0usize, |v, &b| (v << 8) | b as usize);
+        put(&mp4[at + length_size..at + length_size + len]);
+        at += length_size + len;
+    }
+    out
+}
+
+/// A keyframe interval of 20 cuts this 54-frame stimulus into two separately encoded
+/// segments at frame 20, inside the second hold. The file must still be one stream: one
+/// decoder, fed the MP4's samples in order, gives back all 54 frames; the second segment
+/// redraws the hold it begins in without writing a second keyframe PNG for it.
+#[test]
+fn a_stimulus_encoded_in_two_segments_decodes_as_one_stream() {
+    let (_, text) = hu2020();
+    let short = text
+        .replace("width_px = 1680", "width_px = 320")
+        .replace("height_px = 1050", "height_px = 200")
+        .replace("generator = \"icosahedron\"", "generator = \"turntable\"")
+        .replace("count = 12", "count = 3")
+        .replace("hold_s = 3.0", "hold_s = 0.3")
+        .replace("move_s = 1.0", "move_s = 0.3")
+        .replace(
+            "keyframe_interval_frames = 60",
+            "keyframe_interval_frames = 20",
+        );
+    let protocol = Protocol::from_toml(&short, "short.toml").unwrap();
+    let dir = std::env::temp_dir().join(format!("meshgaze-segments-{}", std::process::id()));
+    let mesh_path = common::repo_root().join("stimuli/meshes/bun_zipper_res3.ply");
+    let mesh = meshgaze::mesh::load_mesh(&mesh_path).unwrap().0;
+    let options = StimulusOptions {
+        frames: FrameImages::Keyframes,
+        id_buffer: false,
+        verify: true,
+    };
+    let m = render_stimulus(
+        &mesh_path,
+        &mesh,
+        &protocol,
+        &short,
+        "short.toml",
+        &dir,
+        &options,
+        &Silent,
+    )
+    .unwrap();
+    let v = m.verify.as_ref().unwrap();
+    assert_eq!((m.video.frames, v.frames_decoded), (54, 54));
+    assert!(v.min_psnr_db > 35.0, "PSNR {}", v.min_psnr_db);
+    // 3 holds and 27 move frames, plus the second hold's image drawn again by the segment
+    // that begins inside it; only the hold's first frame is a keyframe PNG.
+    assert_eq!(m.timings.frames_rendered, 3 + 3 * 9 + 1);
+    let pngs: Vec<String> = std::fs::read_dir(dir.join("frames"))
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(pngs.len(), 3, "{pngs:?}");
+    assert!(!pngs.contains(&"frame_00020.png".to_string()), "{pngs:?}");
+
+    let stream = annexb_of_mp4(&std::fs::read(dir.join("stimulus.mp4")).unwrap());
+    let mut decoder = openh264::decoder::Decoder::new().unwrap();
+    let mut decoded = 0;
+    for nal in openh264::nal_units(&stream) {
+        if decoder
+            .decode(nal)
+            .expect("the one stream decodes")
+            .is_some()
+        {
+            decoded += 1;
+        }
+    }
+    decoded += decoder.flush_remaining().unwrap().len();
+    assert_eq!(decoded, 54);
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -471,7 +471,7 @@ fn bench_stimulus(data: &Path) -> Result<()> {
         "\nStimulus (protocols/hu2020.toml) of the 50k armadillo, {} triangles:\n",
         mesh.triangles.len()
     );
-    println!("| frames | size | rendered / reused frames | render (s) | encode (s, on its own thread beside rendering) | total (s) | target (s) |");
+    println!("| frames | size | rendered / reused frames | render (s, thread time summed over the 2 segments) | encode (s, likewise) | total (s) | target (s) |");
     println!("|---:|---|---|---:|---:|---:|---:|");
     println!(
         "| {} | {}x{} @ {} fps | {} / {} | {:.1} | {:.1} | {:.1} | 16 |",

@@ -46,7 +46,7 @@ pub fn self_check(
             }
         }
     }
-    let mut raster = Rasterizer::new(caster.mesh());
+    let raster = Rasterizer::new(caster.mesh());
     let mut report = SelfCheck::default();
     for (_, fixations) in by_view {
         let cam = plan.at(fixations[0].camera_time_s.unwrap_or(0.0));

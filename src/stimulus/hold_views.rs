@@ -28,7 +28,7 @@ impl HoldViewExposure {
 /// Renders the triangle-id buffer of every hold view at the protocol's display size.
 pub fn hold_view_exposure(mesh: &Mesh, protocol: &Protocol) -> Result<HoldViewExposure, String> {
     let plan = CameraPlan::new(mesh, protocol)?;
-    let mut raster = Rasterizer::new(mesh);
+    let raster = Rasterizer::new(mesh);
     let n = mesh.positions.len();
     let mut seen_views = vec![0u32; n];
     let mut closeness = vec![0.0; n];

@@ -58,10 +58,12 @@ pub struct VideoFacts {
 
 #[derive(Debug, Clone, Serialize)]
 pub struct Timings {
-    /// Seconds spent drawing frames (and overlays, PNGs).
+    /// Seconds spent drawing frames (and overlays, PNGs), summed over the video's two
+    /// segments, which render side by side.
     pub render_s: f64,
-    /// Seconds the encoder thread spent encoding; it runs beside the renderer, so the two
-    /// overlap and can add up to more than `total_s`.
+    /// Seconds the segments' encoder threads spent encoding, summed. Renderers and encoders
+    /// all run at once (on a 2-core machine they share the cores), so the two add up to more
+    /// than `total_s`.
     pub encode_s: f64,
     pub total_s: f64,
     pub frames_rendered: usize,
@@ -189,38 +191,38 @@ pub fn render_stimulus(
     let fps = protocol.video.fps;
     let n_frames = protocol.frame_count();
     let video_path = out_dir.join("stimulus.mp4");
-    let mut video = video::Mp4Writer::create(
-        &video_path,
-        w as usize,
-        h as usize,
+    let settings = video::VideoSettings {
+        width: w as usize,
+        height: h as usize,
         fps,
-        protocol.video.bitrate_bps,
-        protocol.video.keyframe_interval_frames,
-    )?;
-    if options.verify {
-        video.check_by_decoding()?;
-    }
+        bitrate_bps: protocol.video.bitrate_bps,
+        keyframe_interval: protocol.video.keyframe_interval_frames,
+    };
+    let file = video::Mp4File::create(&video_path, &settings)?;
     let timeline_path = out_dir.join("timeline.csv");
     let frames_dir = out_dir.join("frames");
     if options.frames != FrameImages::None || options.id_buffer {
         std::fs::create_dir_all(&frames_dir)
             .map_err(|e| format!("{}: {e}", frames_dir.display()))?;
     }
-    let counts = render_frames(
+    write_timeline(&plan, protocol, &timeline_path)?;
+    let (frames, counts, checkers) = render_frames(
         mesh,
         &plan,
         protocol,
-        &mut video,
-        &timeline_path,
+        &settings,
+        file,
         &frames_dir,
         options,
         progress,
     )?;
-    let (frames, checker) = video.finish()?;
-    let verify = checker.map(|c| VerifyReport {
-        frames_decoded: c.frames_decoded,
-        min_psnr_db: c.min_psnr_db,
-        outlier_values: c.outlier_values,
+    let verify = options.verify.then(|| VerifyReport {
+        frames_decoded: checkers.iter().map(|c| c.frames_decoded).sum(),
+        min_psnr_db: checkers
+            .iter()
+            .map(|c| c.min_psnr_db)
+            .fold(f64::INFINITY, f64::min),
+        outlier_values: checkers.iter().map(|c| c.outlier_values).sum(),
     });
     let video_file =
         InputFile::hash(&video_path).map_err(|e| format!("{}: {e}", video_path.display()))?;
@@ -274,6 +276,7 @@ pub fn render_stimulus(
 }
 
 /// Where the frame loop's time went and how many frames it drew.
+#[derive(Default)]
 struct FrameCounts {
     render_s: f64,
     encode_s: f64,
@@ -281,137 +284,270 @@ struct FrameCounts {
     reused: usize,
 }
 
-/// Every frame: its timeline row, its picture (drawn once per hold, every frame of a move),
-/// the sync overlays, the optional PNGs, and the encoder.
+/// The camera of every frame, one CSV row each.
+fn write_timeline(plan: &CameraPlan, protocol: &Protocol, path: &Path) -> Result<(), String> {
+    let io = |e: std::io::Error| format!("{}: {e}", path.display());
+    let mut timeline = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
+    writeln!(timeline, "{}", timeline_header()).map_err(io)?;
+    for i in 0..protocol.frame_count() {
+        let cam = plan.at(i as f64 / protocol.video.fps as f64);
+        writeln!(timeline, "{}", timeline_row(i, &cam)).map_err(io)?;
+    }
+    timeline.flush().map_err(io)
+}
+
+/// Where the video is cut into separately encoded segments: at the keyframe nearest its
+/// middle, so the two halves encode side by side. The cut depends on the protocol alone, never
+/// on the machine, so the bytes are the same everywhere. No cut when the keyframe interval
+/// is under 2 (two keyframes in a row would then come from two encoders, and H.264 wants
+/// consecutive keyframes to carry different ids) or the video is too short to have a
+/// keyframe inside.
+fn segment_bounds(frames: usize, keyframe_interval: usize) -> Vec<usize> {
+    if keyframe_interval >= 2 {
+        let cut =
+            ((frames as f64 / 2.0 / keyframe_interval as f64).round() as usize) * keyframe_interval;
+        if cut > 0 && cut < frames {
+            return vec![0, cut, frames];
+        }
+    }
+    vec![0, frames]
+}
+
+/// Every frame's picture (drawn once per hold, every frame of a move), the sync overlays,
+/// the optional PNGs, and the encoder, in two segments side by side (`segment_bounds`).
+/// Returns the frame count, where the time went, and each segment's decode check.
 #[allow(clippy::too_many_arguments)]
 fn render_frames(
     mesh: &Mesh,
     plan: &CameraPlan,
     protocol: &Protocol,
-    video: &mut video::Mp4Writer,
-    timeline_path: &Path,
+    settings: &video::VideoSettings,
+    file: video::Mp4File,
     frames_dir: &Path,
     options: &StimulusOptions,
     progress: &dyn Progress,
-) -> Result<FrameCounts, String> {
-    let mut raster = Rasterizer::new(mesh);
-    let (w, h) = (protocol.display.width_px, protocol.display.height_px);
-    let fps = protocol.video.fps;
+) -> Result<(usize, FrameCounts, Vec<video::Checker>), String> {
+    let raster = Rasterizer::new(mesh);
     let n_frames = protocol.frame_count();
-    let mut timeline = std::io::BufWriter::new(
-        std::fs::File::create(timeline_path)
-            .map_err(|e| format!("{}: {e}", timeline_path.display()))?,
-    );
-    let io = |e: std::io::Error| format!("{}: {e}", timeline_path.display());
-    writeln!(timeline, "{}", timeline_header()).map_err(io)?;
-    let mut counts = FrameCounts {
-        render_s: 0.0,
-        encode_s: 0.0,
-        rendered: 0,
-        reused: 0,
-    };
-    let mut cached: Option<(usize, Arc<Vec<u8>>)> = None; // (viewpoint, image) of the current hold
-    let overlays = protocol.sync.photodiode || protocol.sync.frame_counter;
+    let bounds = segment_bounds(n_frames, protocol.video.keyframe_interval_frames as usize);
     progress.start("rendering + encoding", n_frames as u64);
-    // The encoder runs on its own thread behind the renderer: it takes frames in order, so
-    // the video is the same bytes as when one thread did both, and the wall time is about the
-    // larger of the two instead of their sum. A hold repeats one image (the same Arc), so the
-    // queue bounds only distinct images: the renderer can run a whole transition ahead while
-    // the encoder works through a hold (with a queue of 4 frames it sat idle for most of each
-    // hold, then the encoder waited on it through the transition).
-    let in_flight = InFlight::new(IN_FLIGHT_IMAGES);
-    let (send, receive) = std::sync::mpsc::channel::<(Arc<Vec<u8>>, bool)>();
-    let encoded = std::thread::scope(|scope| -> Result<f64, String> {
-        let in_flight = &in_flight;
-        let encoder = scope.spawn(move || -> Result<f64, String> {
-            // Whatever way this thread ends, the renderer must not wait for it any more.
-            let _closing = in_flight.close_on_drop();
-            let mut seconds = 0.0;
-            for (frame, distinct) in receive {
-                let te = Instant::now();
-                if distinct {
-                    video.push(&frame)?;
-                    in_flight.release();
-                } else {
-                    video.push_repeat(&frame)?;
-                }
-                seconds += te.elapsed().as_secs_f64();
-            }
-            Ok(seconds)
-        });
-        let mut last_sent: Option<Arc<Vec<u8>>> = None;
-        let rendering = (|| -> Result<(), String> {
-            for i in 0..n_frames {
-                let cam = plan.at(i as f64 / fps as f64);
-                writeln!(timeline, "{}", timeline_row(i, &cam)).map_err(io)?;
-                let tr = Instant::now();
-                let hold_start = cam.phase == Phase::Hold
-                    && cached.as_ref().is_none_or(|c| c.0 != cam.viewpoint);
-                let reuse = cam.phase == Phase::Hold
-                    && cached.as_ref().is_some_and(|c| c.0 == cam.viewpoint);
-                if reuse {
-                    counts.reused += 1;
-                } else {
-                    counts.rendered += 1;
-                    let img = raster.render(&cam, &protocol.rendering);
-                    let key = if cam.phase == Phase::Hold {
-                        cam.viewpoint
-                    } else {
-                        usize::MAX
-                    };
-                    cached = Some((key, Arc::new(img)));
-                }
-                let image = &cached.as_ref().expect("rendered above").1;
-                let frame = if overlays {
-                    let mut f = image.as_ref().clone();
-                    overlay::apply(&mut f, w as usize, h as usize, i, cam.phase, &protocol.sync);
-                    Arc::new(f)
-                } else {
-                    image.clone()
+    // A failing segment stops the others at their next frame.
+    let stop = &std::sync::atomic::AtomicBool::new(false);
+    let mut file = Some(file);
+    let results: Vec<Result<SegmentResult, String>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = bounds
+            .windows(2)
+            .map(|range| {
+                let sink = match file.take() {
+                    Some(f) => video::FrameSink::File(Box::new(f)),
+                    None => video::FrameSink::Memory(Vec::new()),
                 };
-                counts.render_s += tr.elapsed().as_secs_f64();
-                if options.frames == FrameImages::All
-                    || (options.frames == FrameImages::Keyframes && hold_start)
-                {
-                    save_png(&frames_dir.join(format!("frame_{i:05}.png")), &frame, w, h)?;
-                }
-                if options.id_buffer && hold_start {
-                    save_id_buffer(
-                        &mut raster,
-                        &cam,
-                        &frames_dir.join(format!("ids_{i:05}.png")),
-                    )?;
-                }
-                let distinct = !last_sent.as_ref().is_some_and(|l| Arc::ptr_eq(l, &frame));
-                // A distinct image waits for room; false: the encoder stopped, and its own
-                // error is the one to report.
-                if distinct && !in_flight.acquire() {
-                    break;
-                }
-                last_sent = Some(frame.clone());
-                if send.send((frame, distinct)).is_err() {
-                    break;
-                }
-                progress.advance(1);
-            }
-            Ok(())
-        })();
-        drop(send);
-        let encoded = encoder
-            .join()
-            .map_err(|_| "the video encoder thread panicked".to_string())?;
-        rendering?;
-        encoded
-    })?;
-    counts.encode_s = encoded;
+                let segment = Segment {
+                    raster: &raster,
+                    plan,
+                    protocol,
+                    frames_dir,
+                    options,
+                    progress,
+                    stop,
+                };
+                let (first, end) = (range[0], range[1]);
+                scope.spawn(move || {
+                    let result = video::SegmentEncoder::new(settings, first, sink, options.verify)
+                        .and_then(|encoder| segment.run(first..end, encoder));
+                    if result.is_err() {
+                        stop.store(true, std::sync::atomic::Ordering::Relaxed);
+                    }
+                    result
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|h| {
+                h.join()
+                    .unwrap_or_else(|_| Err("a stimulus segment's thread panicked".into()))
+            })
+            .collect()
+    });
     progress.finish();
-    timeline.flush().map_err(io)?;
-    Ok(counts)
+    let mut counts = FrameCounts::default();
+    let mut checkers = Vec::new();
+    let mut file = None;
+    for result in results {
+        let done = result?;
+        counts.render_s += done.counts.render_s;
+        counts.encode_s += done.counts.encode_s;
+        counts.rendered += done.counts.rendered;
+        counts.reused += done.counts.reused;
+        checkers.extend(done.checker);
+        match (done.sink, file.as_mut()) {
+            (video::FrameSink::File(f), None) => file = Some(*f),
+            (video::FrameSink::Memory(frames), Some(f)) => {
+                for frame in &frames {
+                    f.write(&frame.annexb, frame.key)?;
+                }
+            }
+            _ => return Err("stimulus segments out of order (a bug)".into()),
+        }
+    }
+    let frames = file
+        .ok_or("no stimulus segment wrote the file (a bug)")?
+        .finish()?;
+    Ok((frames, counts, checkers))
 }
 
-/// Distinct images the renderer may have queued for the encoder: 32 at 1680x1050 is 170 MB,
-/// room for a whole 1 s transition at 30 fps.
-const IN_FLIGHT_IMAGES: usize = 32;
+/// What one segment hands back: its time and counts, its frames' destination, its check.
+struct SegmentResult {
+    counts: FrameCounts,
+    sink: video::FrameSink,
+    checker: Option<video::Checker>,
+}
+
+/// What every segment shares.
+struct Segment<'a> {
+    raster: &'a Rasterizer<'a>,
+    plan: &'a CameraPlan,
+    protocol: &'a Protocol,
+    frames_dir: &'a Path,
+    options: &'a StimulusOptions,
+    progress: &'a dyn Progress,
+    stop: &'a std::sync::atomic::AtomicBool,
+}
+
+impl Segment<'_> {
+    /// Renders the frames of `range` in order and encodes them on a thread of its own.
+    fn run(
+        &self,
+        range: std::ops::Range<usize>,
+        mut encoder: video::SegmentEncoder,
+    ) -> Result<SegmentResult, String> {
+        let protocol = self.protocol;
+        let (w, h) = (protocol.display.width_px, protocol.display.height_px);
+        let fps = protocol.video.fps;
+        let mut counts = FrameCounts::default();
+        let mut cached: Option<(usize, Arc<Vec<u8>>)> = None; // (viewpoint, image) of the current hold
+        let overlays = protocol.sync.photodiode || protocol.sync.frame_counter;
+        // The encoder runs on its own thread behind the renderer: it takes frames in order, so
+        // the video is the same bytes as when one thread did both, and the wall time is about
+        // the larger of the two instead of their sum. A hold repeats one image (the same Arc),
+        // so the queue bounds only distinct images: the renderer can run through a
+        // transition while the encoder works through a hold.
+        let in_flight = InFlight::new(IN_FLIGHT_IMAGES);
+        let (send, receive) = std::sync::mpsc::channel::<(Arc<Vec<u8>>, bool)>();
+        let (encoded, encoder) = std::thread::scope(|scope| -> Result<_, String> {
+            let in_flight = &in_flight;
+            let encoding = scope.spawn(move || -> Result<_, String> {
+                // Whatever way this thread ends, the renderer must not wait for it any more.
+                let _closing = in_flight.close_on_drop();
+                let mut seconds = 0.0;
+                for (frame, distinct) in receive {
+                    let te = Instant::now();
+                    if distinct {
+                        encoder.push(&frame)?;
+                        in_flight.release();
+                    } else {
+                        encoder.push_repeat(&frame)?;
+                    }
+                    seconds += te.elapsed().as_secs_f64();
+                }
+                Ok((seconds, encoder))
+            });
+            let mut last_sent: Option<Arc<Vec<u8>>> = None;
+            let rendering = (|| -> Result<(), String> {
+                for i in range {
+                    if self.stop.load(std::sync::atomic::Ordering::Relaxed) {
+                        break; // another segment failed; its error is the one to report
+                    }
+                    let cam = self.plan.at(i as f64 / fps as f64);
+                    let tr = Instant::now();
+                    // The first frame of a hold (from the plan: a segment may begin inside one).
+                    let previous = (i > 0).then(|| self.plan.at((i - 1) as f64 / fps as f64));
+                    let hold_start = cam.phase == Phase::Hold
+                        && previous
+                            .is_none_or(|p| p.phase != Phase::Hold || p.viewpoint != cam.viewpoint);
+                    let reuse = cam.phase == Phase::Hold
+                        && cached.as_ref().is_some_and(|c| c.0 == cam.viewpoint);
+                    if reuse {
+                        counts.reused += 1;
+                    } else {
+                        counts.rendered += 1;
+                        let img = self.raster.render(&cam, &protocol.rendering);
+                        let key = if cam.phase == Phase::Hold {
+                            cam.viewpoint
+                        } else {
+                            usize::MAX
+                        };
+                        cached = Some((key, Arc::new(img)));
+                    }
+                    let image = &cached.as_ref().expect("rendered above").1;
+                    let frame = if overlays {
+                        let mut f = image.as_ref().clone();
+                        overlay::apply(
+                            &mut f,
+                            w as usize,
+                            h as usize,
+                            i,
+                            cam.phase,
+                            &protocol.sync,
+                        );
+                        Arc::new(f)
+                    } else {
+                        image.clone()
+                    };
+                    counts.render_s += tr.elapsed().as_secs_f64();
+                    let options = self.options;
+                    if options.frames == FrameImages::All
+                        || (options.frames == FrameImages::Keyframes && hold_start)
+                    {
+                        save_png(
+                            &self.frames_dir.join(format!("frame_{i:05}.png")),
+                            &frame,
+                            w,
+                            h,
+                        )?;
+                    }
+                    if options.id_buffer && hold_start {
+                        save_id_buffer(
+                            self.raster,
+                            &cam,
+                            &self.frames_dir.join(format!("ids_{i:05}.png")),
+                        )?;
+                    }
+                    let distinct = !last_sent.as_ref().is_some_and(|l| Arc::ptr_eq(l, &frame));
+                    // A distinct image waits for room; false: the encoder stopped, and its own
+                    // error is the one to report.
+                    if distinct && !in_flight.acquire() {
+                        break;
+                    }
+                    last_sent = Some(frame.clone());
+                    if send.send((frame, distinct)).is_err() {
+                        break;
+                    }
+                    self.progress.advance(1);
+                }
+                Ok(())
+            })();
+            drop(send);
+            let encoded = encoding
+                .join()
+                .map_err(|_| "the video encoder thread panicked".to_string())?;
+            rendering?;
+            encoded
+        })?;
+        counts.encode_s = encoded;
+        let (sink, checker) = encoder.finish();
+        Ok(SegmentResult {
+            counts,
+            sink,
+            checker,
+        })
+    }
+}
+
+/// Distinct images each segment's renderer may have queued for its encoder: 16 at
+/// 1680x1050 is 85 MB, 170 MB for the two segments.
+const IN_FLIGHT_IMAGES: usize = 16;
 
 /// A counting semaphore for the images in the queue, which the encoder closes when it ends
 /// (done, failed or panicked) so the renderer never waits on it forever.
@@ -464,7 +600,7 @@ impl InFlight {
 
 /// The triangle under each pixel as a PNG: 24-bit id + 1 in RGB (0 = background), exact for
 /// up to 16.7 million triangles.
-fn save_id_buffer(raster: &mut Rasterizer, cam: &CameraState, path: &Path) -> Result<(), String> {
+fn save_id_buffer(raster: &Rasterizer, cam: &CameraState, path: &Path) -> Result<(), String> {
     let ids = raster.triangle_ids(cam);
     let rgb: Vec<u8> = ids
         .iter()
@@ -483,7 +619,19 @@ pub fn manifest_path(dir: &Path) -> PathBuf {
 
 #[cfg(test)]
 mod tests {
-    use super::InFlight;
+    use super::{segment_bounds, InFlight};
+
+    #[test]
+    fn the_video_is_cut_at_the_keyframe_nearest_its_middle() {
+        assert_eq!(segment_bounds(1440, 60), vec![0, 720, 1440]);
+        assert_eq!(segment_bounds(54, 20), vec![0, 20, 54]);
+        assert_eq!(segment_bounds(100, 30), vec![0, 60, 100]);
+        // No keyframe strictly inside, or a keyframe every frame: one segment.
+        assert_eq!(segment_bounds(54, 60), vec![0, 54]);
+        assert_eq!(segment_bounds(54, 1), vec![0, 54]);
+        assert_eq!(segment_bounds(10, 40), vec![0, 10]);
+        assert_eq!(segment_bounds(0, 60), vec![0, 0]);
+    }
 
     #[test]
     fn queue_room_frees_on_release_and_never_blocks_after_the_encoder_ends() {

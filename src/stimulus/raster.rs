@@ -217,7 +217,7 @@ impl<'a> Rasterizer<'a> {
     }
 
     /// Triangle index under each pixel centre (no anti-aliasing), BACKGROUND_ID where none.
-    pub fn triangle_ids(&mut self, cam: &CameraState) -> Vec<u32> {
+    pub fn triangle_ids(&self, cam: &CameraState) -> Vec<u32> {
         let (width, height) = (cam.width_px as usize, cam.height_px as usize);
         let band_rows = BAND_PIXEL_ROWS;
         let binned = self.bin(cam, width, height, band_rows);
@@ -241,7 +241,7 @@ impl<'a> Rasterizer<'a> {
     /// An anti-aliased RGB frame (width × height × 3 bytes, rows top to bottom): each pixel
     /// covered by one triangle is shaded once at its centre, a pixel on an edge is the mean
     /// of its samples' shades.
-    pub fn render(&mut self, cam: &CameraState, style: &Rendering) -> Vec<u8> {
+    pub fn render(&self, cam: &CameraState, style: &Rendering) -> Vec<u8> {
         let s = style.supersampling.max(1) as usize;
         let (w, h) = (cam.width_px as usize, cam.height_px as usize);
         let (width, height) = (w * s, h * s);

@@ -10,15 +10,87 @@ use openh264::encoder::{
 use openh264::formats::{RgbSliceU8, YUVBuffer};
 use openh264::OpenH264API;
 
-pub struct Mp4Writer {
-    encoder: Encoder,
+/// The encoder's settings for one stimulus.
+#[derive(Debug, Clone, Copy)]
+pub struct VideoSettings {
+    pub width: usize,
+    pub height: usize,
+    pub fps: u32,
+    pub bitrate_bps: u32,
+    pub keyframe_interval: u32,
+}
+
+/// One frame's H.264 access unit (Annex B) and whether it is a keyframe.
+pub struct EncodedFrame {
+    pub annexb: Vec<u8>,
+    pub key: bool,
+}
+
+/// An MP4 file being written, one access unit after another.
+pub struct Mp4File {
     muxer: muxide::api::Muxer<BufWriter<std::fs::File>>,
+    fps: f64,
+    frames: usize,
+}
+
+impl Mp4File {
+    pub fn create(path: &Path, settings: &VideoSettings) -> Result<Mp4File, String> {
+        let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        let muxer = muxide::api::MuxerBuilder::new(BufWriter::new(file))
+            .video(
+                muxide::api::VideoCodec::H264,
+                settings.width as u32,
+                settings.height as u32,
+                settings.fps as f64,
+            )
+            .with_fast_start(true)
+            .build()
+            .map_err(|e| format!("{}: cannot start the MP4 muxer: {e:?}", path.display()))?;
+        Ok(Mp4File {
+            muxer,
+            fps: settings.fps as f64,
+            frames: 0,
+        })
+    }
+
+    /// Appends the next frame; it is shown at frame_index / fps seconds.
+    pub fn write(&mut self, annexb: &[u8], key: bool) -> Result<(), String> {
+        self.muxer
+            .write_video(self.frames as f64 / self.fps, annexb, key)
+            .map_err(|e| format!("MP4 muxing failed at frame {}: {e:?}", self.frames))?;
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// Writes the MP4 index; returns the frame count.
+    pub fn finish(mut self) -> Result<usize, String> {
+        self.muxer
+            .finish_in_place()
+            .map_err(|e| format!("cannot finish the MP4: {e:?}"))?;
+        Ok(self.frames)
+    }
+}
+
+/// Where a segment's encoded frames go: straight into the file (the first segment), or kept
+/// until the segments before it are written.
+pub enum FrameSink {
+    File(Box<Mp4File>),
+    Memory(Vec<EncodedFrame>),
+}
+
+/// Encodes one run of consecutive frames with an encoder of its own. Its first frame is a
+/// keyframe, at a place where one encoder for the whole video puts a keyframe too, so the
+/// runs decode one after another as one stream; two runs encode side by side on two cores.
+pub struct SegmentEncoder {
+    encoder: Encoder,
     yuv: YUVBuffer,
     width: usize,
     height: usize,
-    fps: f64,
+    /// The video's index of this run's first frame (for messages).
+    first_frame: usize,
     frames: usize,
     annexb: Vec<u8>,
+    sink: FrameSink,
     /// Decodes every frame right after encoding it and compares, when asked for.
     checker: Option<Checker>,
 }
@@ -32,67 +104,59 @@ pub struct Checker {
     pub outlier_values: usize,
 }
 
-impl Mp4Writer {
-    pub fn create(
-        path: &Path,
-        width: usize,
-        height: usize,
-        fps: u32,
-        bitrate_bps: u32,
-        keyframe_interval: u32,
-    ) -> Result<Mp4Writer, String> {
+impl SegmentEncoder {
+    pub fn new(
+        settings: &VideoSettings,
+        first_frame: usize,
+        sink: FrameSink,
+        check: bool,
+    ) -> Result<SegmentEncoder, String> {
         let config = EncoderConfig::new()
-            .bitrate(BitRate::from_bps(bitrate_bps))
-            .max_frame_rate(FrameRate::from_hz(fps as f32))
+            .bitrate(BitRate::from_bps(settings.bitrate_bps))
+            .max_frame_rate(FrameRate::from_hz(settings.fps as f32))
             .rate_control_mode(RateControlMode::Bitrate)
             .usage_type(UsageType::CameraVideoRealTime)
             .profile(Profile::High)
             .level(Level::Level_4_0)
             .skip_frames(false)
-            .intra_frame_period(IntraFramePeriod::from_num_frames(keyframe_interval))
+            .intra_frame_period(IntraFramePeriod::from_num_frames(
+                settings.keyframe_interval,
+            ))
             // On by default, it leaves isolated bright or dark pixels in P-frames: unacceptable
             // in an eye-tracking stimulus (measured in shared/docs/rust-ecosystem.md §3).
             .background_detection(false)
+            // One thread per encoder, whatever the machine (a single slice gives its threads
+            // nothing to share; the same bytes as openh264's automatic setting): the
+            // segments are the parallelism.
+            .num_threads(1)
             .vui(VuiConfig::bt709());
         let encoder = Encoder::with_api_config(OpenH264API::from_source(), config)
             .map_err(|e| format!("cannot start the H.264 encoder: {e}"))?;
-        let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
-        let muxer = muxide::api::MuxerBuilder::new(BufWriter::new(file))
-            .video(
-                muxide::api::VideoCodec::H264,
-                width as u32,
-                height as u32,
-                fps as f64,
-            )
-            .with_fast_start(true)
-            .build()
-            .map_err(|e| format!("{}: cannot start the MP4 muxer: {e:?}", path.display()))?;
-        Ok(Mp4Writer {
+        let checker = if check {
+            Some(Checker {
+                decoder: openh264::decoder::Decoder::new().map_err(|e| e.to_string())?,
+                decoded: vec![0; settings.width * settings.height * 3],
+                frames_decoded: 0,
+                min_psnr_db: f64::INFINITY,
+                outlier_values: 0,
+            })
+        } else {
+            None
+        };
+        Ok(SegmentEncoder {
             encoder,
-            muxer,
-            yuv: YUVBuffer::new(width, height),
-            width,
-            height,
-            fps: fps as f64,
+            yuv: YUVBuffer::new(settings.width, settings.height),
+            width: settings.width,
+            height: settings.height,
+            first_frame,
             frames: 0,
             annexb: Vec::new(),
-            checker: None,
+            sink,
+            checker,
         })
     }
 
-    /// Decode each frame back as it is written and compare it with the input.
-    pub fn check_by_decoding(&mut self) -> Result<(), String> {
-        self.checker = Some(Checker {
-            decoder: openh264::decoder::Decoder::new().map_err(|e| e.to_string())?,
-            decoded: vec![0; self.width * self.height * 3],
-            frames_decoded: 0,
-            min_psnr_db: f64::INFINITY,
-            outlier_values: 0,
-        });
-        Ok(())
-    }
-
-    /// Appends one RGB frame; it is shown at frame_index / fps seconds.
+    /// Appends one RGB frame.
     pub fn push(&mut self, rgb: &[u8]) -> Result<(), String> {
         assert_eq!(rgb.len(), self.width * self.height * 3);
         self.yuv
@@ -111,22 +175,28 @@ impl Mp4Writer {
     }
 
     fn encode_current(&mut self, rgb: &[u8]) -> Result<(), String> {
+        let at = self.first_frame + self.frames;
         let bitstream = self
             .encoder
             .encode(&self.yuv)
-            .map_err(|e| format!("H.264 encoding failed at frame {}: {e}", self.frames))?;
+            .map_err(|e| format!("H.264 encoding failed at frame {at}: {e}"))?;
         let key = matches!(bitstream.frame_type(), FrameType::IDR | FrameType::I);
+        if self.frames == 0 && !key {
+            return Err(format!(
+                "frame {at} starts an encoder but is not a keyframe"
+            ));
+        }
         self.annexb.clear();
         bitstream.write_vec(&mut self.annexb);
         if self.annexb.is_empty() {
-            return Err(format!("the encoder skipped frame {}", self.frames));
+            return Err(format!("the encoder skipped frame {at}"));
         }
         if let Some(ch) = self.checker.as_mut() {
             for nal in openh264::nal_units(&self.annexb) {
                 let out = ch
                     .decoder
                     .decode(nal)
-                    .map_err(|e| format!("decoding back frame {}: {e}", self.frames))?;
+                    .map_err(|e| format!("decoding back frame {at}: {e}"))?;
                 if let Some(yuv) = out {
                     yuv.write_rgb8(&mut ch.decoded);
                     let mut se = 0.0;
@@ -148,19 +218,20 @@ impl Mp4Writer {
                 }
             }
         }
-        self.muxer
-            .write_video(self.frames as f64 / self.fps, &self.annexb, key)
-            .map_err(|e| format!("MP4 muxing failed at frame {}: {e:?}", self.frames))?;
+        match &mut self.sink {
+            FrameSink::File(file) => file.write(&self.annexb, key)?,
+            FrameSink::Memory(frames) => frames.push(EncodedFrame {
+                annexb: std::mem::take(&mut self.annexb),
+                key,
+            }),
+        }
         self.frames += 1;
         Ok(())
     }
 
-    /// Writes the MP4 index; returns the frame count and the decode check if one ran.
-    pub fn finish(mut self) -> Result<(usize, Option<Checker>), String> {
-        self.muxer
-            .finish_in_place()
-            .map_err(|e| format!("cannot finish the MP4: {e:?}"))?;
-        Ok((self.frames, self.checker))
+    /// The frames' destination (with the frames if kept in memory) and the decode check.
+    pub fn finish(self) -> (FrameSink, Option<Checker>) {
+        (self.sink, self.checker)
     }
 }
 
