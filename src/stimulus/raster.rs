@@ -4,7 +4,7 @@
 //!
 //! Rasterization samples pixel centres with the top-left fill rule, so two triangles sharing
 //! an edge never both cover (or both miss) a sample on it: the id buffer is watertight.
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::camera::CameraState;
@@ -239,15 +239,18 @@ impl<'a> Rasterizer<'a> {
     }
 
     /// An anti-aliased RGB frame (width × height × 3 bytes, rows top to bottom): each pixel
-    /// covered by one triangle is shaded once at its centre, a pixel on an edge is the mean
-    /// of its samples' shades.
+    /// covered by one triangle is shaded once at its centre; on a pixel whose samples see
+    /// several triangles, each is shaded once at the centroid of its samples and weighted by
+    /// their count (`edge_pixel`).
     pub fn render(&self, cam: &CameraState, style: &Rendering) -> Vec<u8> {
         let s = style.supersampling.max(1) as usize;
         let (w, h) = (cam.width_px as usize, cam.height_px as usize);
         let (width, height) = (w * s, h * s);
         let band_rows = BAND_PIXEL_ROWS * s;
         let binned = self.bin(cam, width, height, band_rows);
-        let light = (cam.orientation * DVec3::from_array(style.light_direction)).normalize();
+        let light = (cam.orientation * DVec3::from_array(style.light_direction))
+            .normalize()
+            .as_vec3();
         let material = style.material.map(|c| c as f64);
         let background = style.background.map(|c| c as f64);
         let mut rgb = vec![0u8; w * h * 3];
@@ -323,22 +326,7 @@ impl<'a> Rasterizer<'a> {
                                     }
                                     continue;
                                 }
-                                let mut acc = [0.0f64; 3];
-                                for (i, &t) in q.iter().enumerate() {
-                                    let c = if t == BACKGROUND_ID {
-                                        background
-                                    } else {
-                                        shade(
-                                            t,
-                                            (x * 2 + (i & 1)) as f64 + 0.5,
-                                            (y * 2 + (i >> 1)) as f64 + 0.5,
-                                        )
-                                    };
-                                    for k in 0..3 {
-                                        acc[k] += c[k];
-                                    }
-                                }
-                                put(out_row, o, acc.map(|a| a / 4.0));
+                                put(out_row, o, edge_pixel(&q, 2, x, y, &mut shade, background));
                             }
                             continue;
                         }
@@ -352,25 +340,13 @@ impl<'a> Rasterizer<'a> {
                             } else if uniform {
                                 shade(t0, (x as f64 + 0.5) * s as f64, (y as f64 + 0.5) * s as f64)
                             } else {
-                                let mut acc = [0.0f64; 3];
+                                let mut q = [BACKGROUND_ID; 16];
                                 for dy in 0..s {
                                     for dx in 0..s {
-                                        let t = sample(dy, dx);
-                                        let c = if t == BACKGROUND_ID {
-                                            background
-                                        } else {
-                                            shade(
-                                                t,
-                                                (x * s + dx) as f64 + 0.5,
-                                                (y * s + dy) as f64 + 0.5,
-                                            )
-                                        };
-                                        for k in 0..3 {
-                                            acc[k] += c[k];
-                                        }
+                                        q[dy * s + dx] = sample(dy, dx);
                                     }
                                 }
-                                acc.map(|a| a / (s * s) as f64)
+                                edge_pixel(&q[..s * s], s, x, y, &mut shade, background)
                             };
                             put(out_row, x * 3, c);
                         }
@@ -379,6 +355,48 @@ impl<'a> Rasterizer<'a> {
             );
         rgb
     }
+}
+
+/// The colour of a pixel whose samples (`q`, row by row, `s` × `s`) do not all see one
+/// triangle: each distinct triangle is shaded once, at the centroid of the samples it covers,
+/// and weighted by their count, as multisampling does. The centroid of points inside a
+/// triangle is inside it, so no shade is extrapolated past an edge; where a surface merely
+/// continues across an edge between two triangles (most edge pixels of a dense mesh), two
+/// shades stand for four.
+#[inline]
+fn edge_pixel(
+    q: &[u32],
+    s: usize,
+    x: usize,
+    y: usize,
+    shade: &mut impl FnMut(u32, f64, f64) -> [f64; 3],
+    background: [f64; 3],
+) -> [f64; 3] {
+    let mut acc = [0.0f64; 3];
+    for (i, &t) in q.iter().enumerate() {
+        if q[..i].contains(&t) {
+            continue; // shaded with its first sample
+        }
+        let (mut n, mut sum_dx, mut sum_dy) = (0usize, 0usize, 0usize);
+        for (j, _) in q.iter().enumerate().skip(i).filter(|(_, &u)| u == t) {
+            n += 1;
+            sum_dx += j % s;
+            sum_dy += j / s;
+        }
+        let c = if t == BACKGROUND_ID {
+            background
+        } else {
+            shade(
+                t,
+                (x * s) as f64 + 0.5 + sum_dx as f64 / n as f64,
+                (y * s) as f64 + 0.5 + sum_dy as f64 / n as f64,
+            )
+        };
+        for k in 0..3 {
+            acc[k] += c[k] * n as f64;
+        }
+    }
+    acc.map(|a| a / q.len() as f64)
 }
 
 /// A triangle's shading inputs as planes in screen space, set up once per band. With
@@ -400,22 +418,32 @@ impl ShadingSetup {
         &self,
         x: f64,
         y: f64,
-        light: DVec3,
+        light: Vec3,
         style: &Rendering,
         material: [f64; 3],
     ) -> [f64; 3] {
         let (dx, dy) = ((x - self.origin[0]) as f32, (y - self.origin[1]) as f32);
-        let at = |k: usize| {
+        let at32 = |k: usize| {
             let p = self.planes[k];
-            (p[0] + p[1] * dx + p[2] * dy) as f64
+            p[0] + p[1] * dx + p[2] * dy
         };
-        let mut n = DVec3::new(at(1), at(2), at(3));
-        let to_eye = DVec3::new(at(4), at(5), at(6));
+        let at = |k: usize| at32(k) as f64;
+        // In f32, as the planes are: the shade is rounded to 8 bits. The normal is normalized
+        // only where the light reaches it (a square root and a division per pixel were a
+        // quarter of the shading time).
+        let n = Vec3::new(at32(1), at32(2), at32(3));
+        let to_eye = Vec3::new(at32(4), at32(5), at32(6));
+        let mut toward_light = n.dot(light);
         if n.dot(to_eye) < 0.0 {
-            n = -n; // two-sided: scans with holes show their insides
+            toward_light = -toward_light; // two-sided: scans with holes show their insides
         }
-        let n = n.normalize_or_zero();
-        let intensity = style.ambient + style.diffuse * n.dot(light).max(0.0);
+        let length2 = n.length_squared();
+        let lit = if toward_light > 0.0 && length2 > 0.0 && length2.is_finite() {
+            toward_light / length2.sqrt()
+        } else {
+            0.0
+        };
+        let intensity = style.ambient + style.diffuse * lit as f64;
         let albedo = if self.planes[7][0].is_nan() {
             material
         } else {
