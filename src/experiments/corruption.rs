@@ -3,6 +3,7 @@ use glam::DVec3;
 use kiddo::{ImmutableKdTree, SquaredEuclidean};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 
 use crate::mesh::Mesh;
 
@@ -41,8 +42,9 @@ pub fn transfer_by_nearest_vertex(
     let pts: Vec<[f64; 3]> = source_positions.iter().map(|p| p.to_array()).collect();
     let tree: ImmutableKdTree<f64, 3> =
         ImmutableKdTree::new_from_slice(&pts).expect("fewer than 2^32 vertices");
+    // Each target's query is its own: in parallel, the same values in the same order.
     target_positions
-        .iter()
+        .par_iter()
         .map(|p| {
             let hit = tree
                 .query(&p.to_array())
@@ -148,7 +150,6 @@ pub fn transfer_by_nearest_surface_point(
     values: &[f64],
     targets: &[DVec3],
 ) -> Vec<f64> {
-    use rayon::prelude::*;
     let pts: Vec<[f64; 3]> = source.positions.iter().map(|p| p.to_array()).collect();
     let tree: ImmutableKdTree<f64, 3> =
         ImmutableKdTree::new_from_slice(&pts).expect("fewer than 2^32 vertices");
