@@ -847,6 +847,27 @@ mod tests {
         }
     }
 
+    /// An edge pixel shades each triangle once, at the centroid of the samples it covers, and
+    /// weights it by their count; background samples count as the background colour.
+    #[test]
+    fn edge_pixels_shade_each_triangle_once_at_its_samples_centroid() {
+        let mut calls = Vec::new();
+        let mut shade = |t: u32, x: f64, y: f64| {
+            calls.push((t, x, y));
+            [t as f64, x, y]
+        };
+        let background = [100.0, 0.0, 0.0];
+        // Pixel (3, 4) at 2x2: samples at x 6.5 / 7.5 and y 8.5 / 9.5, row by row.
+        let c = edge_pixel(&[5, 5, 7, BACKGROUND_ID], 2, 3, 4, &mut shade, background);
+        assert_eq!(calls, vec![(5, 7.0, 8.5), (7, 6.5, 9.5)]);
+        let expected = [
+            (2.0 * 5.0 + 7.0 + 100.0) / 4.0,
+            (2.0 * 7.0 + 6.5) / 4.0,
+            (2.0 * 8.5 + 9.5) / 4.0,
+        ];
+        assert_eq!(c, expected);
+    }
+
     #[test]
     fn open_or_inconsistent_meshes_draw_every_triangle() {
         let mut open = icosphere(1.0, 2);
