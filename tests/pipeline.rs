@@ -344,19 +344,8 @@ fn move_phase_fixations_round_trip_with_the_start_camera() {
     }
 }
 
-fn short_protocol() -> String {
-    hu2020()
-        .1
-        .replace("width_px = 1680", "width_px = 320")
-        .replace("height_px = 1050", "height_px = 200")
-        .replace("generator = \"icosahedron\"", "generator = \"turntable\"")
-        .replace("count = 12", "count = 3")
-        .replace("hold_s = 3.0", "hold_s = 0.3")
-        .replace("move_s = 1.0", "move_s = 0.3")
-}
-
 fn render_short(dir: &Path) -> std::path::PathBuf {
-    let text = short_protocol();
+    let text = common::short_protocol_text();
     let protocol = Protocol::from_toml(&text, "short.toml").unwrap();
     let mesh_path = dir.join("bunny.ply");
     std::fs::copy(

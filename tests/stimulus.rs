@@ -166,14 +166,7 @@ fn vertices_project_onto_pixels_of_their_own_triangles() {
 
 #[test]
 fn a_short_stimulus_decodes_back_to_what_was_rendered_and_repeats_byte_for_byte() {
-    let (_, text) = hu2020();
-    let short = text
-        .replace("width_px = 1680", "width_px = 320")
-        .replace("height_px = 1050", "height_px = 200")
-        .replace("generator = \"icosahedron\"", "generator = \"turntable\"")
-        .replace("count = 12", "count = 3")
-        .replace("hold_s = 3.0", "hold_s = 0.3")
-        .replace("move_s = 1.0", "move_s = 0.3");
+    let short = common::short_protocol_text();
     let protocol = Protocol::from_toml(&short, "short.toml").unwrap();
     assert_eq!(protocol.frame_count(), 54);
     let dir = std::env::temp_dir().join(format!("meshgaze-stim-{}", std::process::id()));
@@ -345,18 +338,10 @@ fn annexb_of_mp4(mp4: &[u8]) -> Vec<u8> {
 /// redraws the hold it begins in without writing a second keyframe PNG for it.
 #[test]
 fn a_stimulus_encoded_in_two_segments_decodes_as_one_stream() {
-    let (_, text) = hu2020();
-    let short = text
-        .replace("width_px = 1680", "width_px = 320")
-        .replace("height_px = 1050", "height_px = 200")
-        .replace("generator = \"icosahedron\"", "generator = \"turntable\"")
-        .replace("count = 12", "count = 3")
-        .replace("hold_s = 3.0", "hold_s = 0.3")
-        .replace("move_s = 1.0", "move_s = 0.3")
-        .replace(
-            "keyframe_interval_frames = 60",
-            "keyframe_interval_frames = 20",
-        );
+    let short = common::short_protocol_text().replace(
+        "keyframe_interval_frames = 60",
+        "keyframe_interval_frames = 20",
+    );
     let protocol = Protocol::from_toml(&short, "short.toml").unwrap();
     let dir = std::env::temp_dir().join(format!("meshgaze-segments-{}", std::process::id()));
     let mesh_path = common::repo_root().join("stimuli/meshes/bun_zipper_res3.ply");

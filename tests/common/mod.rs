@@ -9,6 +9,19 @@ pub fn repo_root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// The hu2020 protocol's text shrunk to a quick stimulus: 320x200, a 3-view turntable, holds
+/// and moves of 0.3 s (54 frames at 30 fps).
+pub fn short_protocol_text() -> String {
+    std::fs::read_to_string(repo_root().join("protocols/hu2020.toml"))
+        .expect("hu2020 protocol")
+        .replace("width_px = 1680", "width_px = 320")
+        .replace("height_px = 1050", "height_px = 200")
+        .replace("generator = \"icosahedron\"", "generator = \"turntable\"")
+        .replace("count = 12", "count = 3")
+        .replace("hold_s = 3.0", "hold_s = 0.3")
+        .replace("move_s = 1.0", "move_s = 0.3")
+}
+
 /// The bundled 8,171-vertex Stanford bunny.
 pub fn bunny() -> Mesh {
     load_mesh(&repo_root().join("stimuli/meshes/bun_zipper_res2.ply"))
