@@ -1,6 +1,7 @@
 //! Stimulus rendering: a protocol and a mesh become a turntable video, the camera timeline
 //! of every frame, and a manifest with the hashes that later stages check.
 pub mod camera;
+pub mod h264_repeat;
 pub mod hold_views;
 pub mod load;
 pub mod overlay;
