@@ -182,10 +182,6 @@ pub fn mean_curvature_with(
     incidence: &VertexTriangles,
 ) -> (Vec<f64>, CurvatureReport) {
     let n = mesh.positions.len();
-    let terms: Vec<([f64; 3], [f64; 3])> = (0..mesh.triangles.len())
-        .into_par_iter()
-        .map(|t| triangle_terms(mesh.triangle(t)))
-        .collect();
     // Each vertex gathers its triangles' terms in triangle order: the sums a sequential
     // scatter over triangles makes, bit for bit, on any number of threads. The same walk over
     // its triangles tells whether it sits on a boundary edge. Vertices are visited in the
@@ -213,7 +209,10 @@ pub fn mean_curvature_with(
             for (t, k) in incidence.of_vertex(v) {
                 let tri = mesh.triangles[t];
                 let p = tri.map(|i| mesh.positions[i as usize]);
-                let (c, areas) = terms[t];
+                // Recomputed at each of the triangle's three corners rather than stored:
+                // the positions are loaded here anyway, and a table of every triangle's
+                // terms (48 bytes each) costs more in memory traffic than the arithmetic.
+                let (c, areas) = triangle_terms(p);
                 let [first, second] = corner_laplace_terms(p, c, k);
                 laplace += first;
                 laplace += second;
@@ -235,35 +234,38 @@ pub fn mean_curvature_with(
             )
         })
         .collect();
-    let mut interior = vec![(0.0, false); n];
+    // The interior formula's value of every vertex, then the boundary vertices (few) replaced
+    // by the mean over their interior neighbours, which the replacement leaves unchanged.
+    let mut h = vec![0.0; n];
     let mut boundary = vec![false; n];
-    for (&(_, v), &(h, has_area, on_boundary)) in order.iter().zip(&visited) {
-        interior[v as usize] = (h, has_area);
+    let mut report = CurvatureReport::default();
+    for (&(_, v), &(value, has_area, on_boundary)) in order.iter().zip(&visited) {
+        h[v as usize] = value;
         boundary[v as usize] = on_boundary;
+        report.vertices_without_area += usize::from(!has_area);
+        report.boundary_vertices += usize::from(on_boundary);
     }
-    let mut report = CurvatureReport {
-        vertices_without_area: interior.iter().filter(|(_, has_area)| !has_area).count(),
-        boundary_vertices: boundary.iter().filter(|&&b| b).count(),
-        ..CurvatureReport::default()
-    };
-    let h: Vec<Option<f64>> = (0..n)
-        .into_par_iter()
-        .map_init(Vec::new, |partners, v| {
-            if !boundary[v] {
-                return Some(interior[v].0);
-            }
+    let on_boundary: Vec<usize> = (0..n).filter(|&v| boundary[v]).collect();
+    let replaced: Vec<Option<f64>> = on_boundary
+        .par_iter()
+        .map_init(Vec::new, |partners, &v| {
             incidence.edge_partners(mesh, v, partners);
             partners.dedup();
             let inner: Vec<f64> = partners
                 .iter()
                 .filter(|&&u| !boundary[u as usize])
-                .map(|&u| interior[u as usize].0)
+                .map(|&u| h[u as usize])
                 .collect();
             (!inner.is_empty()).then(|| inner.iter().sum::<f64>() / inner.len() as f64)
         })
         .collect();
-    report.boundary_vertices_without_interior_neighbour = h.iter().filter(|x| x.is_none()).count();
-    (h.into_iter().map(|x| x.unwrap_or(0.0)).collect(), report)
+    for (&v, value) in on_boundary.iter().zip(replaced) {
+        if value.is_none() {
+            report.boundary_vertices_without_interior_neighbour += 1;
+        }
+        h[v] = value.unwrap_or(0.0);
+    }
+    (h, report)
 }
 
 /// Small synthetic meshes with known geometry, for tests and examples.
