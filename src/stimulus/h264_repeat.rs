@@ -99,6 +99,9 @@ impl RepeatWriter {
                     unescape(&nal[1..], &mut self.rbsp);
                     let at = frame_num_position(&self.rbsp)?;
                     let bits = params.log2_max_frame_num;
+                    if at + bits as usize > self.rbsp.len() * 8 {
+                        return Err("an H.264 slice header ends before its frame number".into());
+                    }
                     if read_bits_at(&self.rbsp, at, bits) == frame_num {
                         out.extend_from_slice(nal);
                     } else {
@@ -354,7 +357,12 @@ fn parse_sps(rbsp: &[u8]) -> Result<SpsFields, String> {
             }
         }
     }
-    let log2_max_frame_num = r.ue()? + 4;
+    let log2_max_frame_num = r.ue()?.saturating_add(4);
+    if log2_max_frame_num > 16 {
+        return Err(format!(
+            "the H.264 SPS gives log2_max_frame_num {log2_max_frame_num} (at most 16)"
+        ));
+    }
     let poc_type = r.ue()?;
     if poc_type != 2 {
         return Err(format!(
@@ -370,15 +378,21 @@ fn parse_sps(rbsp: &[u8]) -> Result<SpsFields, String> {
         ));
     }
     r.bit()?; // gaps_in_frame_num_value_allowed_flag
-    let width_mbs = r.ue()? + 1;
-    let height_map_units = r.ue()? + 1;
+    let width_mbs = r.ue()?.saturating_add(1);
+    let height_map_units = r.ue()?.saturating_add(1);
+    let pic_size_in_mbs = width_mbs
+        .checked_mul(height_map_units)
+        .filter(|&mbs| mbs <= 1 << 20)
+        .ok_or_else(|| {
+            format!("the H.264 SPS gives a picture of {width_mbs} × {height_map_units} macroblocks")
+        })?;
     if r.bit()? != 1 {
         return Err("H.264 repeats need frame (not field) coding".into());
     }
     Ok(SpsFields {
         sps_id,
         log2_max_frame_num,
-        pic_size_in_mbs: width_mbs * height_map_units,
+        pic_size_in_mbs,
     })
 }
 
@@ -485,6 +499,92 @@ mod tests {
             }
             unescape(&escaped, &mut back);
             assert_eq!(back, rbsp, "{rbsp:?}");
+        }
+    }
+
+    proptest::proptest! {
+        /// Whatever bytes arrive (a corrupted or foreign stream), the reader answers with a
+        /// value or an error, never a panic.
+        #[test]
+        fn renumbering_arbitrary_bytes_never_panics(
+            units in proptest::collection::vec(
+                (proptest::sample::select(vec![0x67u8, 0x68, 0x65, 0x41, 0x01, 0x06]),
+                 proptest::collection::vec(proptest::prelude::any::<u8>(), 0..24)),
+                0..6),
+        ) {
+            let mut stream = Vec::new();
+            for (header, payload) in &units {
+                stream.extend_from_slice(&[0, 0, 0, 1, *header]);
+                stream.extend_from_slice(payload);
+            }
+            let mut writer = RepeatWriter::new();
+            let mut out = Vec::new();
+            let _ = writer.renumber(&stream, &mut out);
+            let _ = writer.repeat(&mut out);
+            let _ = writer.renumber(&stream, &mut out);
+        }
+    }
+
+    /// A valid SPS and PPS of the kind the repeats accept (Annex B), for the property test.
+    fn parameter_sets() -> Vec<u8> {
+        let mut sps = BitWriter::default();
+        sps.bits(66, 8); // profile: baseline
+        sps.bits(0, 8);
+        sps.bits(40, 8);
+        sps.ue(0);
+        sps.ue(11); // log2_max_frame_num 15
+        sps.ue(2); // picture order count type 2
+        sps.ue(1); // one reference frame
+        sps.bits(0, 1);
+        sps.ue(5);
+        sps.ue(3);
+        sps.bits(1, 1); // frames only
+        sps.bits(0, 3); // direct 8x8, cropping, VUI
+        sps.trailing_bits();
+        let mut pps = BitWriter::default();
+        pps.ue(0);
+        pps.ue(0);
+        pps.bits(0, 2); // CAVLC, no bottom-field order
+        pps.ue(0);
+        pps.ue(0);
+        pps.ue(0);
+        pps.bits(0, 3);
+        pps.se(0);
+        pps.se(0);
+        pps.se(0);
+        pps.bits(0b100, 3); // deblocking control present
+        pps.trailing_bits();
+        let mut out = vec![0, 0, 0, 1, 0x67];
+        escape(&sps.bytes, &mut out);
+        out.extend_from_slice(&[0, 0, 0, 1, 0x68]);
+        escape(&pps.bytes, &mut out);
+        out
+    }
+
+    proptest::proptest! {
+        /// Valid parameter sets, then slices of arbitrary bytes: errors, never a panic, and
+        /// a repeat after an accepted IDR slice is a well-formed unit.
+        #[test]
+        fn arbitrary_slices_after_valid_parameter_sets_never_panic(
+            slices in proptest::collection::vec(
+                (proptest::sample::select(vec![0x65u8, 0x41, 0x01, 0x21]),
+                 proptest::collection::vec(proptest::prelude::any::<u8>(), 0..16)),
+                1..5),
+        ) {
+            let mut writer = RepeatWriter::new();
+            let mut out = Vec::new();
+            let only_sets = writer.renumber(&parameter_sets(), &mut out).unwrap_err();
+            proptest::prop_assert!(only_sets.contains("holds no picture"), "{}", only_sets);
+            for (header, payload) in &slices {
+                let mut unit = vec![0, 0, 0, 1, *header];
+                unit.extend_from_slice(payload);
+                out.clear();
+                if writer.renumber(&unit, &mut out).is_ok() {
+                    out.clear();
+                    writer.repeat(&mut out).unwrap();
+                    proptest::prop_assert_eq!(&out[..5], &[0, 0, 0, 1, (header & 0x60) | 1][..]);
+                }
+            }
         }
     }
 
