@@ -158,7 +158,7 @@ impl RepeatWriter {
 }
 
 /// The NAL units of an Annex B byte stream, without start codes.
-pub fn nal_units(annexb: &[u8]) -> impl Iterator<Item = &[u8]> {
+fn nal_units(annexb: &[u8]) -> impl Iterator<Item = &[u8]> {
     let mut starts = Vec::new();
     let mut i = 0;
     while i + 3 <= annexb.len() {

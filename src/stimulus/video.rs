@@ -269,7 +269,7 @@ fn encoder_config(settings: &VideoSettings) -> EncoderConfig {
         .profile(Profile::High)
         .level(Level::Level_4_0)
         .skip_frames(false)
-        // Keyframes are placed by `push`, counted in the video's frames: the encoder
+        // Keyframes are placed by `SegmentEncoder`, counted in the video's frames: the encoder
         // does not see the repeated frames, so its own count would drift.
         .intra_frame_period(IntraFramePeriod::from_num_frames(0))
         // On by default, it leaves isolated bright or dark pixels in P-frames: unacceptable
