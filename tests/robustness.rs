@@ -195,3 +195,34 @@ fn bench_times_one_cell_alone() {
         "{err}"
     );
 }
+
+#[test]
+fn the_stimulus_bench_cell_reports_its_frames_and_its_own_peak_memory() {
+    let Some(data) =
+        common::shared_data("the_stimulus_bench_cell_reports_its_frames_and_its_own_peak_memory")
+    else {
+        return;
+    };
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+        .args(["bench", "--child", "--data"])
+        .arg(&data)
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let cell: serde_json::Value = serde_json::from_str(text.trim()).expect("one JSON line");
+    assert_eq!(cell["frames"], 1440, "{cell}");
+    assert_eq!(cell["triangles"], 99976, "{cell}");
+    assert_eq!(
+        cell["rendered"].as_u64().unwrap() + cell["reused"].as_u64().unwrap(),
+        1440,
+        "{cell}"
+    );
+    // Measured in its own process (the parent also holds the SMI parse bench's 284 MB).
+    let peak = cell["peak_rss_mb"].as_f64().unwrap();
+    assert!(peak > 20.0 && peak < 1000.0, "{cell}");
+}

@@ -40,7 +40,8 @@ pub struct BenchArgs {
     /// own process so the peak memory is that method's alone.
     #[arg(long, value_enum)]
     pub method: Option<Method>,
-    /// Run the case in this process and print its JSON (how the bench calls itself).
+    /// Run the case (without --case: the stimulus) in this process and print its JSON (how
+    /// the bench calls itself).
     #[arg(long, hide = true)]
     pub child: bool,
     /// Skip the stimulus benchmark (a 48 s 1680x1050 video of the 50k armadillo, ~30 s).
@@ -262,6 +263,11 @@ fn data_folder(given: Option<&std::path::Path>) -> Result<PathBuf> {
 
 pub fn run(args: BenchArgs) -> Result<()> {
     let data = data_folder(args.data.as_deref())?;
+    if args.child && args.case.is_none() {
+        // The stimulus cell (how `bench_stimulus` calls itself).
+        println!("{}", serde_json::to_string(&stimulus_cell(&data)?)?);
+        return Ok(());
+    }
     if args.child {
         let case = args.case.as_deref().context("--child needs --case")?;
         let r = run_case(case, &data, args.repeat, args.method)?;
@@ -402,7 +408,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.case.is_none() && args.method.is_none() {
         bench_smi_parse(&data)?;
         if !args.skip_stimulus {
-            bench_stimulus(&data)?;
+            bench_stimulus(&exe, &data)?;
         }
     }
     println!(
@@ -441,15 +447,30 @@ pub fn run(args: BenchArgs) -> Result<()> {
     Ok(())
 }
 
+/// What the stimulus cell measured.
+#[derive(Debug, Serialize, Deserialize)]
+struct StimulusCell {
+    triangles: usize,
+    frames: usize,
+    width: u32,
+    height: u32,
+    fps: u32,
+    rendered: usize,
+    reused: usize,
+    render_s: f64,
+    encode_s: f64,
+    total_s: f64,
+    peak_rss_mb: f64,
+}
+
 /// The protocol's full 48 s stimulus of the 50k armadillo (~100k triangles), rendered and
-/// encoded, written to a temporary folder.
-fn bench_stimulus(data: &Path) -> Result<()> {
+/// encoded into a temporary folder, in this process.
+fn stimulus_cell(data: &Path) -> Result<StimulusCell> {
     use meshgaze::stimulus::{render_stimulus, FrameImages, Protocol, StimulusOptions};
     let mesh_path = data.join("meshes/classic/decimated_profactor_50k/armadillo.obj");
     let (protocol, text) = Protocol::builtin();
     let (mesh, _) = load_mesh(&mesh_path)?;
     let out = std::env::temp_dir().join(format!("meshgaze-bench-stimulus-{}", std::process::id()));
-    eprintln!("bench: stimulus ...");
     let options = StimulusOptions {
         frames: FrameImages::None,
         id_buffer: false,
@@ -465,25 +486,58 @@ fn bench_stimulus(data: &Path) -> Result<()> {
         &options,
         &Silent,
     )
-    .map_err(anyhow::Error::msg)?;
+    .map_err(anyhow::Error::msg);
     let _ = std::fs::remove_dir_all(&out);
+    let m = m?;
+    Ok(StimulusCell {
+        triangles: mesh.triangles.len(),
+        frames: m.video.frames,
+        width: m.video.width,
+        height: m.video.height,
+        fps: m.video.fps,
+        rendered: m.timings.frames_rendered,
+        reused: m.timings.frames_reused,
+        render_s: m.timings.render_s,
+        encode_s: m.timings.encode_s,
+        total_s: m.timings.total_s,
+        peak_rss_mb: peak_rss_mb(),
+    })
+}
+
+/// The stimulus cell in a process of its own (so its peak memory is the stimulus's alone,
+/// not the SMI parse's before it), printed as a table.
+fn bench_stimulus(exe: &Path, data: &Path) -> Result<()> {
+    eprintln!("bench: stimulus ...");
+    let out = Command::new(exe)
+        .args(["bench", "--child", "--data"])
+        .arg(data)
+        .output()
+        .context("cannot run the stimulus bench")?;
+    if !out.status.success() {
+        bail!(
+            "the stimulus bench failed: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+    let m: StimulusCell = serde_json::from_str(String::from_utf8_lossy(&out.stdout).trim())?;
     println!(
         "\nStimulus (protocols/hu2020.toml) of the 50k armadillo, {} triangles:\n",
-        mesh.triangles.len()
+        m.triangles
     );
-    println!("| frames | size | rendered / reused frames | render (s, thread time summed over the 2 segments) | encode (s, likewise) | total (s) | target (s) |");
-    println!("|---:|---|---|---:|---:|---:|---:|");
+    println!("| frames | size | rendered / reused frames | render (s, thread time summed over the 2 segments) | encode (s, likewise) | total (s) | target (s) | peak RSS (MB) |");
+    println!("|---:|---|---|---:|---:|---:|---:|---:|");
     println!(
-        "| {} | {}x{} @ {} fps | {} / {} | {:.1} | {:.1} | {:.1} | 16 |",
-        m.video.frames,
-        m.video.width,
-        m.video.height,
-        m.video.fps,
-        m.timings.frames_rendered,
-        m.timings.frames_reused,
-        m.timings.render_s,
-        m.timings.encode_s,
-        m.timings.total_s
+        "| {} | {}x{} @ {} fps | {} / {} | {:.1} | {:.1} | {:.1} | 16 | {:.0} |",
+        m.frames,
+        m.width,
+        m.height,
+        m.fps,
+        m.rendered,
+        m.reused,
+        m.render_s,
+        m.encode_s,
+        m.total_s,
+        m.peak_rss_mb
     );
     Ok(())
 }
