@@ -263,8 +263,9 @@ fn data_folder(given: Option<&std::path::Path>) -> Result<PathBuf> {
 
 pub fn run(args: BenchArgs) -> Result<()> {
     let data = data_folder(args.data.as_deref())?;
-    if args.child && args.case.is_none() {
-        // The stimulus cell (how `bench_stimulus` calls itself).
+    if args.child && args.case.is_none() && args.method.is_none() {
+        // The stimulus cell (how `bench_stimulus` calls itself); a method without a case
+        // is still refused below.
         println!("{}", serde_json::to_string(&stimulus_cell(&data)?)?);
         return Ok(());
     }
