@@ -114,58 +114,38 @@ pub fn surface_regions_of_interest(
     };
 
     // Per radius: PCA-reduced spin images (an orthogonal projection, so distances stay in
-    // the images' own units: a featureless shape stays featureless), f32 in lanes of 8
-    // (zero-padded) because the pair loop is the method's cost and 8-wide sums vectorize.
-    let mut flat: Vec<Vec<f32>> = vec![Vec::new(); n];
-    let mut dims = Vec::new();
+    // the images' own units: a featureless shape stays featureless) as f32, stored dimension
+    // by dimension so the pair loop below runs across many vertices j at once.
     let to_units = 1.0 / params.distance_scale;
+    let mut scales = Vec::with_capacity(params.radii.len());
     for &radius in &params.radii {
         let images = spin_images(&work, radius, params.alpha_bins, params.beta_bins);
         let u = pca_project(&images, params.pca_dims)?;
-        let padded = u[0].len().div_ceil(8) * 8;
-        dims.push(padded);
-        for (row, r) in flat.iter_mut().zip(u) {
-            let start = row.len();
-            row.extend(r.into_iter().map(|x| (x * to_units) as f32));
-            row.resize(start + padded, 0.0);
-        }
+        scales.push(DescriptorColumns::new(&u, to_units));
     }
     let k = params.most_similar.min(n - 1).max(1);
-    let scales = params.radii.len();
+    let pairs = PairTerms {
+        x: work.mesh.positions.iter().map(|p| p.x).collect(),
+        y: work.mesh.positions.iter().map(|p| p.y).collect(),
+        z: work.mesh.positions.iter().map(|p| p.z).collect(),
+        label: &patches.label,
+        centre_distance: &centre_distance,
+        geodesic_weight: params.geodesic_weight,
+        scales: &scales,
+    };
     // One pass over all pairs serves every radius: the geodesic term is shared.
     let distinctness: Vec<f64> = (0..n)
         .into_par_iter()
-        .map(|i| {
-            let mut rows: Vec<Vec<f64>> = vec![Vec::with_capacity(n - 1); scales];
-            // geodesic(i, j) inlined: this loop runs n² times.
-            let from_patch = &centre_distance[patches.label[i] as usize];
-            let pi = work.mesh.positions[i];
-            for j in (0..n).filter(|&j| j != i) {
-                let straight = pi.distance(work.mesh.positions[j]);
-                let path = from_patch[patches.label[j] as usize];
-                let g = if path.is_finite() {
-                    path.max(straight)
-                } else {
-                    straight
-                };
-                let discount = 1.0 / (1.0 + params.geodesic_weight * g);
-                let mut offset = 0;
-                for (s, &d) in dims.iter().enumerate() {
-                    let a = &flat[i][offset..offset + d];
-                    let b = &flat[j][offset..offset + d];
-                    rows[s].push(lane_distance(a, b) * discount);
-                    offset += d;
-                }
-            }
-            rows.iter_mut()
-                .map(|row| {
-                    row.select_nth_unstable_by(k - 1, f64::total_cmp);
-                    let mean = row[..k].iter().sum::<f64>() / k as f64;
-                    1.0 - (-mean).exp()
-                })
-                .sum::<f64>()
-                / scales as f64
-        })
+        .map_init(
+            || PairScratch::new(n, scales.len()),
+            |scratch, i| {
+                pairs.discounted_distances(i, scratch);
+                (0..scales.len())
+                    .map(|s| 1.0 - (-scratch.mean_of_smallest(s, i, n, k)).exp())
+                    .sum::<f64>()
+                    / scales.len() as f64
+            },
+        )
         .collect();
     let max_d = distinctness.iter().cloned().fold(0.0, f64::max);
     let extremities = extremity_patches(&work, &patches, &centre_distance, params.hull_directions)?;
@@ -213,17 +193,165 @@ pub fn surface_regions_of_interest(
     ))
 }
 
-/// Euclidean distance of two equally long f32 vectors whose length is a multiple of 8,
-/// summed in eight lanes (a fixed order, so the same bytes on every machine).
-fn lane_distance(a: &[f32], b: &[f32]) -> f64 {
-    let mut lanes = [0.0f32; 8];
-    for (x, y) in a.chunks_exact(8).zip(b.chunks_exact(8)) {
-        for k in 0..8 {
-            let d = x[k] - y[k];
-            lanes[k] += d * d;
+/// One radius's reduced descriptors as f32 columns: `values[c * stride + j]` is dimension c
+/// of vertex j, dimensions zero-padded to a multiple of 8 and vertices to `stride`, a
+/// multiple of `PAIR_BLOCK`, so the pair loop runs whole blocks only.
+struct DescriptorColumns {
+    dims: usize,
+    stride: usize,
+    values: Vec<f32>,
+}
+
+impl DescriptorColumns {
+    fn new(rows: &[Vec<f64>], scale: f64) -> Self {
+        let stride = rows.len().div_ceil(PAIR_BLOCK) * PAIR_BLOCK;
+        let dims = rows.first().map_or(0, |r| r.len()).div_ceil(8) * 8;
+        let mut values = vec![0.0f32; dims * stride];
+        for (j, row) in rows.iter().enumerate() {
+            for (c, &x) in row.iter().enumerate() {
+                values[c * stride + j] = (x * scale) as f32;
+            }
+        }
+        DescriptorColumns {
+            dims,
+            stride,
+            values,
         }
     }
-    (lanes.iter().sum::<f32>() as f64).sqrt()
+}
+
+/// Vertices j handled together: 8 lanes of f32 for each of them stay in L1.
+const PAIR_BLOCK: usize = 64;
+
+/// What the distinctness pair loop reads: positions, patches and descriptors.
+struct PairTerms<'a> {
+    x: Vec<f64>,
+    y: Vec<f64>,
+    z: Vec<f64>,
+    label: &'a [u32],
+    centre_distance: &'a [Vec<f64>],
+    geodesic_weight: f64,
+    scales: &'a [DescriptorColumns],
+}
+
+/// Per-thread buffers of the pair loop, `PAIR_BLOCK`-padded: `rows[s][j]` is d(i, j) at
+/// radius s for every j (j = i included, the padding after n meaningless).
+struct PairScratch {
+    discount: Vec<f64>,
+    path: Vec<f64>,
+    rows: Vec<Vec<f64>>,
+    /// Row i without its own entry and padding, for the selection to reorder.
+    others: Vec<f64>,
+}
+
+impl PairScratch {
+    fn new(n: usize, scales: usize) -> Self {
+        let stride = n.div_ceil(PAIR_BLOCK) * PAIR_BLOCK;
+        PairScratch {
+            discount: vec![0.0; stride],
+            path: vec![0.0; n],
+            rows: vec![vec![0.0; stride]; scales],
+            others: Vec::with_capacity(n),
+        }
+    }
+
+    /// Mean of the k smallest d(i, j), j ≠ i, at radius s.
+    fn mean_of_smallest(&mut self, s: usize, i: usize, n: usize, k: usize) -> f64 {
+        let row = &self.rows[s];
+        self.others.clear();
+        self.others.extend_from_slice(&row[..i]);
+        self.others.extend_from_slice(&row[i + 1..n]);
+        self.others.select_nth_unstable_by(k - 1, f64::total_cmp);
+        self.others[..k].iter().sum::<f64>() / k as f64
+    }
+}
+
+impl PairTerms<'_> {
+    fn discounted_distances(&self, i: usize, scratch: &mut PairScratch) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                // SAFETY: the CPU has AVX-512F, checked just above.
+                return unsafe { self.discounted_distances_avx512(i, scratch) };
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the CPU has AVX2, checked just above.
+                return unsafe { self.discounted_distances_avx2(i, scratch) };
+            }
+        }
+        self.discounted_distances_portable(i, scratch)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f")]
+    fn discounted_distances_avx512(&self, i: usize, scratch: &mut PairScratch) {
+        self.discounted_distances_portable(i, scratch)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    fn discounted_distances_avx2(&self, i: usize, scratch: &mut PairScratch) {
+        self.discounted_distances_portable(i, scratch)
+    }
+
+    /// d(i, j) = ‖u_i − u_j‖ / (1 + c·g(i, j)) for every j and radius. Every value is the
+    /// same IEEE sequence of operations in every build (no fused multiply-add, the eight
+    /// lanes of the descriptor distance summed in lane order), so SIMD width does not
+    /// change a bit: the geodesic g is the patch-centre path, never below the straight
+    /// distance, or the straight distance across components.
+    #[inline(always)]
+    fn discounted_distances_portable(&self, i: usize, scratch: &mut PairScratch) {
+        let from_patch = &self.centre_distance[self.label[i] as usize];
+        for (path, &l) in scratch.path.iter_mut().zip(self.label) {
+            *path = from_patch[l as usize];
+        }
+        let (xi, yi, zi) = (self.x[i], self.y[i], self.z[i]);
+        let c = self.geodesic_weight;
+        let positions = self.x.iter().zip(&self.y).zip(&self.z);
+        for ((discount, ((x, y), z)), &path) in scratch
+            .discount
+            .iter_mut()
+            .zip(positions)
+            .zip(&scratch.path)
+        {
+            let (dx, dy, dz) = (xi - x, yi - y, zi - z);
+            let straight = (dx * dx + dy * dy + dz * dz).sqrt();
+            let g = if path.is_finite() {
+                path.max(straight)
+            } else {
+                straight
+            };
+            *discount = 1.0 / (1.0 + c * g);
+        }
+        debug_assert_eq!(scratch.discount.len() % PAIR_BLOCK, 0);
+        for (scale, row) in self.scales.iter().zip(scratch.rows.iter_mut()) {
+            let own: Vec<f32> = (0..scale.dims)
+                .map(|d| scale.values[d * scale.stride + i])
+                .collect();
+            let blocks = row
+                .chunks_exact_mut(PAIR_BLOCK)
+                .zip(scratch.discount.chunks_exact(PAIR_BLOCK));
+            for (b, (out, discount)) in blocks.enumerate() {
+                let start = b * PAIR_BLOCK;
+                let mut lanes = [[0.0f32; PAIR_BLOCK]; 8];
+                for (d, &u) in own.iter().enumerate() {
+                    let at = d * scale.stride + start;
+                    let column = &scale.values[at..at + PAIR_BLOCK];
+                    for (lane, &v) in lanes[d % 8].iter_mut().zip(column) {
+                        let diff = u - v;
+                        *lane += diff * diff;
+                    }
+                }
+                for t in 0..PAIR_BLOCK {
+                    let mut sum = lanes[0][t];
+                    for lane in &lanes[1..] {
+                        sum += lane[t];
+                    }
+                    out[t] = (sum as f64).sqrt() * discount[t];
+                }
+            }
+        }
+    }
 }
 
 /// Patches whose centres lie on the convex hull of a 3-D classical MDS embedding of the
@@ -297,4 +425,136 @@ fn extremity_patches(
         .filter(|&a| on_hull[a] && patches.adjacency[a].iter().all(|&q| radius[q] < radius[a]))
         .map(|a| (a, radius[a] / median))
         .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+
+    /// d(i, j) as the pair loop first computed it, one pair at a time: row-major f32
+    /// descriptors, their 8-lane distance summed in lane order, glam's straight distance.
+    fn one_pair(terms: &PairTerms, rows: &[Vec<Vec<f32>>], i: usize, j: usize) -> Vec<f64> {
+        let at = |v: usize| DVec3::new(terms.x[v], terms.y[v], terms.z[v]);
+        let straight = at(i).distance(at(j));
+        let path = terms.centre_distance[terms.label[i] as usize][terms.label[j] as usize];
+        let g = if path.is_finite() {
+            path.max(straight)
+        } else {
+            straight
+        };
+        let discount = 1.0 / (1.0 + terms.geodesic_weight * g);
+        rows.iter()
+            .map(|scale| {
+                let mut lanes = [0.0f32; 8];
+                for (a, b) in scale[i].chunks_exact(8).zip(scale[j].chunks_exact(8)) {
+                    for k in 0..8 {
+                        let d = a[k] - b[k];
+                        lanes[k] += d * d;
+                    }
+                }
+                (lanes.iter().sum::<f32>() as f64).sqrt() * discount
+            })
+            .collect()
+    }
+
+    /// The blocked, column-wise loop must give every pair's value to the bit, in every SIMD
+    /// width this CPU has: the maps of earlier versions stay the same bytes.
+    #[test]
+    fn the_blocked_pair_loop_matches_the_pairwise_definition_bit_for_bit() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        // 150 vertices: two whole blocks and a partial one; 16 and 5 (padded to 8) dims.
+        let n = 150;
+        let descriptors: Vec<Vec<Vec<f64>>> = [16, 5]
+            .iter()
+            .map(|&d| {
+                (0..n)
+                    .map(|_| (0..d).map(|_| next() - 0.5).collect())
+                    .collect()
+            })
+            .collect();
+        let label: Vec<u32> = (0..n).map(|_| (next() * 4.0) as u32).collect();
+        // Patch 3 is another component: no path to it.
+        let centre_distance: Vec<Vec<f64>> = (0..4)
+            .map(|a| {
+                (0..4)
+                    .map(|b| {
+                        if a == b {
+                            0.0
+                        } else if a == 3 || b == 3 {
+                            f64::INFINITY
+                        } else {
+                            0.3 + 0.1 * (a + b) as f64
+                        }
+                    })
+                    .collect()
+            })
+            .collect();
+        let scale = 10.0;
+        let scales: Vec<DescriptorColumns> = descriptors
+            .iter()
+            .map(|u| DescriptorColumns::new(u, scale))
+            .collect();
+        let rows: Vec<Vec<Vec<f32>>> = descriptors
+            .iter()
+            .map(|u| {
+                u.iter()
+                    .map(|r| {
+                        let mut v: Vec<f32> = r.iter().map(|x| (x * scale) as f32).collect();
+                        v.resize(r.len().div_ceil(8) * 8, 0.0);
+                        v
+                    })
+                    .collect()
+            })
+            .collect();
+        let terms = PairTerms {
+            x: (0..n).map(|_| next()).collect(),
+            y: (0..n).map(|_| next()).collect(),
+            z: (0..n).map(|_| next()).collect(),
+            label: &label,
+            centre_distance: &centre_distance,
+            geodesic_weight: 3.0,
+            scales: &scales,
+        };
+        type Variant = fn(&PairTerms, usize, &mut PairScratch);
+        let mut variants: Vec<(&str, Variant)> = vec![
+            ("dispatched", |t, i, s| t.discounted_distances(i, s)),
+            ("portable", |t, i, s| t.discounted_distances_portable(i, s)),
+        ];
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx2") {
+                variants.push(("avx2", |t, i, s| unsafe {
+                    t.discounted_distances_avx2(i, s)
+                }));
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                variants.push(("avx512", |t, i, s| unsafe {
+                    t.discounted_distances_avx512(i, s)
+                }));
+            }
+        }
+        for (name, variant) in variants {
+            let mut scratch = PairScratch::new(n, scales.len());
+            for i in [0, 1, 63, 64, 100, 149] {
+                variant(&terms, i, &mut scratch);
+                for j in (0..n).filter(|&j| j != i) {
+                    let expected = one_pair(&terms, &rows, i, j);
+                    for (s, e) in expected.iter().enumerate() {
+                        assert_eq!(
+                            scratch.rows[s][j].to_bits(),
+                            e.to_bits(),
+                            "{name}: d({i}, {j}) at scale {s}"
+                        );
+                    }
+                }
+            }
+        }
+    }
 }
