@@ -80,17 +80,34 @@ impl WorkingCopy {
     /// Working vertices within `radius` of `p`, in index order (so sums over them do not
     /// depend on the tree's traversal).
     pub fn within(&self, p: DVec3, radius: f64) -> Vec<usize> {
-        let mut hits: Vec<usize> = self
+        let hits = self
             .tree
             .query(&p.to_array())
             .within::<SquaredEuclidean<f64>>(radius * radius)
             .unsorted()
-            .execute()
-            .into_iter()
-            .map(|h| h.item as usize)
-            .collect();
-        hits.sort_unstable();
-        hits
+            .execute();
+        let words = self.len().div_ceil(64);
+        if hits.len() * 16 < words {
+            let mut found: Vec<usize> = hits.into_iter().map(|h| h.item as usize).collect();
+            found.sort_unstable();
+            return found;
+        }
+        // Many hits: mark them in a bit set and read it in index order, cheaper than a sort
+        // (the same ascending list; tree items are distinct).
+        let mut marks = vec![0u64; words];
+        for h in &hits {
+            let i = h.item as usize;
+            marks[i / 64] |= 1 << (i % 64);
+        }
+        let mut found = Vec::with_capacity(hits.len());
+        for (w, &bits) in marks.iter().enumerate() {
+            let mut rest = bits;
+            while rest != 0 {
+                found.push(w * 64 + rest.trailing_zeros() as usize);
+                rest &= rest - 1;
+            }
+        }
+        found
     }
 
     /// The carry-back σ: the working copy's mean edge length, so a value spreads over about
@@ -191,5 +208,45 @@ impl RawSpread {
                 0.0
             },
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::load_mesh;
+
+    /// Whether the hits are few (sorted) or many (read from a bit set), the list is the
+    /// tree's hits in ascending order.
+    #[test]
+    fn within_lists_the_trees_hits_in_index_order_for_small_and_large_radii() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("stimuli/meshes/bun_zipper_res2.ply");
+        let (mesh, _) = load_mesh(&path).unwrap();
+        let work = WorkingCopy::new(&mesh, 4000).unwrap();
+        let mut both_paths = [false, false];
+        for (k, &v) in [0usize, 17, 1000, 2500].iter().enumerate() {
+            let p = work.mesh.positions[v.min(work.len() - 1)];
+            for radius in [0.0, 0.01, 0.03, 0.1, 0.4, 3.0] {
+                let mut expected: Vec<usize> = work
+                    .tree
+                    .query(&p.to_array())
+                    .within::<SquaredEuclidean<f64>>(radius * radius)
+                    .unsorted()
+                    .execute()
+                    .into_iter()
+                    .map(|h| h.item as usize)
+                    .collect();
+                expected.sort_unstable();
+                both_paths[usize::from(expected.len() * 16 >= work.len().div_ceil(64))] = true;
+                assert_eq!(
+                    work.within(p, radius),
+                    expected,
+                    "vertex {k}, radius {radius}"
+                );
+            }
+        }
+        assert_eq!(both_paths, [true, true]);
+        assert_eq!(work.within(work.mesh.positions[0], 3.0).len(), work.len());
     }
 }
