@@ -1,5 +1,6 @@
 //! Small geometric building blocks shared by the stages.
 use glam::{DMat3, DVec3};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::mesh::Mesh;
@@ -118,16 +119,36 @@ pub struct Normalization {
     pub radius: f64,
 }
 
+/// Triangles whose moment terms are computed together before being summed in order.
+const MOMENT_BLOCK: usize = 1 << 16;
+
 impl Normalization {
     pub fn of_mesh(mesh: &Mesh, bbox: BoundingBox) -> Normalization {
-        // Area-weighted centroid and second moments of the surface.
+        // Area-weighted centroid and second moments of the surface. Each triangle's terms are
+        // computed in parallel, a block at a time, and summed in triangle order: the same
+        // bits as one sequential loop, on any thread count.
+        let count = mesh.triangles.len();
+        let blocks = || {
+            (0..count)
+                .step_by(MOMENT_BLOCK)
+                .map(move |start| start..(start + MOMENT_BLOCK).min(count))
+        };
         let mut area_sum = 0.0;
         let mut first = DVec3::ZERO;
-        for t in 0..mesh.triangles.len() {
-            let [a, b, c] = mesh.triangle(t);
-            let area = 0.5 * (b - a).cross(c - a).length();
-            area_sum += area;
-            first += area * (a + b + c) / 3.0;
+        let mut first_terms: Vec<(f64, DVec3)> = Vec::new();
+        for block in blocks() {
+            block
+                .into_par_iter()
+                .map(|t| {
+                    let [a, b, c] = mesh.triangle(t);
+                    let area = 0.5 * (b - a).cross(c - a).length();
+                    (area, area * (a + b + c) / 3.0)
+                })
+                .collect_into_vec(&mut first_terms);
+            for &(area, term) in &first_terms {
+                area_sum += area;
+                first += term;
+            }
         }
         let center = if area_sum > 0.0 {
             first / area_sum
@@ -138,26 +159,44 @@ impl Normalization {
             BoundingBox::Axis => DMat3::IDENTITY,
             BoundingBox::Oriented => {
                 let mut cov = DMat3::ZERO;
-                for t in 0..mesh.triangles.len() {
-                    let [a, b, c] = mesh.triangle(t).map(|p| p - center);
-                    let area = 0.5 * (b - a).cross(c - a).length();
-                    let s = a + b + c;
-                    // Exact second moment of a uniform density on the triangle.
-                    let outer = |u: DVec3| DMat3::from_cols(u * u.x, u * u.y, u * u.z);
-                    cov += (outer(a) + outer(b) + outer(c) + outer(s)) * (area / 12.0);
+                let mut terms: Vec<DMat3> = Vec::new();
+                for block in blocks() {
+                    block
+                        .into_par_iter()
+                        .map(|t| {
+                            let [a, b, c] = mesh.triangle(t).map(|p| p - center);
+                            let area = 0.5 * (b - a).cross(c - a).length();
+                            let s = a + b + c;
+                            // Exact second moment of a uniform density on the triangle.
+                            let outer = |u: DVec3| DMat3::from_cols(u * u.x, u * u.y, u * u.z);
+                            (outer(a) + outer(b) + outer(c) + outer(s)) * (area / 12.0)
+                        })
+                        .collect_into_vec(&mut terms);
+                    for term in &terms {
+                        cov += *term;
+                    }
                 }
                 symmetric_eigen3(cov).1
             }
         };
-        let mut lo = DVec3::splat(f64::INFINITY);
-        let mut hi = DVec3::splat(f64::NEG_INFINITY);
-        for tri in &mesh.triangles {
-            for &i in tri {
-                let q = axes.transpose() * (mesh.positions[i as usize] - center);
-                lo = lo.min(q);
-                hi = hi.max(q);
-            }
-        }
+        // Minima and maxima do not depend on the order they are taken in.
+        let to_frame = axes.transpose();
+        let (lo, hi) = mesh
+            .triangles
+            .par_iter()
+            .map(|tri| {
+                tri.iter().fold(
+                    (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+                    |(lo, hi), &i| {
+                        let q = to_frame * (mesh.positions[i as usize] - center);
+                        (lo.min(q), hi.max(q))
+                    },
+                )
+            })
+            .reduce(
+                || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+                |(lo_a, hi_a), (lo_b, hi_b)| (lo_a.min(lo_b), hi_a.max(hi_b)),
+            );
         let radius = 0.5 * (hi - lo).length();
         let radius = if radius > 0.0 && radius.is_finite() {
             radius
@@ -210,6 +249,51 @@ pub fn pearson(a: &[f64], b: &[f64]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The normalization as one sequential loop computes it: the parallel blocks must give
+    /// the same bits, on any thread count.
+    #[test]
+    fn the_normalization_is_the_sequential_one_to_the_bit_on_any_thread_count() {
+        // More triangles than one block, off-centre and stretched so every term matters.
+        let mut mesh = crate::mesh::mean_curvature::test_meshes::icosphere(1.0, 6);
+        assert!(mesh.triangles.len() > MOMENT_BLOCK);
+        for p in mesh.positions.iter_mut() {
+            *p = DVec3::new(3.0 * p.x + 0.1, p.y - 2.0, 0.5 * p.z + 0.3 * p.x);
+        }
+        let (mut area_sum, mut first) = (0.0, DVec3::ZERO);
+        for t in 0..mesh.triangles.len() {
+            let [a, b, c] = mesh.triangle(t);
+            let area = 0.5 * (b - a).cross(c - a).length();
+            area_sum += area;
+            first += area * (a + b + c) / 3.0;
+        }
+        let center = first / area_sum;
+        let mut cov = DMat3::ZERO;
+        for t in 0..mesh.triangles.len() {
+            let [a, b, c] = mesh.triangle(t).map(|p| p - center);
+            let area = 0.5 * (b - a).cross(c - a).length();
+            let s = a + b + c;
+            let outer = |u: DVec3| DMat3::from_cols(u * u.x, u * u.y, u * u.z);
+            cov += (outer(a) + outer(b) + outer(c) + outer(s)) * (area / 12.0);
+        }
+        let axes = symmetric_eigen3(cov).1;
+        let (mut lo, mut hi) = (DVec3::INFINITY, DVec3::NEG_INFINITY);
+        for p in &mesh.positions {
+            let q = axes.transpose() * (*p - center);
+            lo = lo.min(q);
+            hi = hi.max(q);
+        }
+        let radius = 0.5 * (hi - lo).length();
+        for threads in [1, 2, 3] {
+            let norm = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| Normalization::of_mesh(&mesh, BoundingBox::Oriented));
+            assert_eq!(norm.center, center.to_array(), "{threads} threads");
+            assert_eq!(norm.radius.to_bits(), radius.to_bits(), "{threads} threads");
+        }
+    }
 
     #[test]
     fn closest_point_regions() {
