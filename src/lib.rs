@@ -14,6 +14,7 @@ pub mod gaze_model;
 pub mod mesh;
 pub mod progress;
 pub mod projection;
+pub mod protocol;
 pub mod provenance;
 pub mod report;
 pub mod saliency;

@@ -12,7 +12,7 @@ use meshgaze::gaze::fixations::{
 use meshgaze::gaze::ingest::{
     check_one_source_per_subject, ingest_file, FilterRules, IngestParams,
 };
-use meshgaze::gaze::model::{EyeSample, Header, Message, Recording, SmiFormat};
+use meshgaze::gaze::recording::{EyeSample, Header, Message, Recording, SmiFormat};
 use meshgaze::gaze::stimulus_messages::{classify_messages, MessageKind, Segmentation};
 use meshgaze::gaze::writers::write_samples_a;
 use meshgaze::gaze::{detect_format, parse_smi};

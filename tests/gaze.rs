@@ -288,7 +288,7 @@ mod fixation_tests {
     use meshgaze::gaze::fixations::{
         apply_protocol_filter, fixations, Detector, DetectorParams, EyePolicy, Fate,
     };
-    use meshgaze::gaze::model::{EyeSample, Header, RowAccount};
+    use meshgaze::gaze::recording::{EyeSample, Header, RowAccount};
 
     /// 250 Hz samples: 300 ms at (100,100), a jump, 500 ms at (400,300), a jump, 200 ms at (700,500).
     fn synthetic() -> Recording {
@@ -517,7 +517,7 @@ fn ingest_command_writes_fixations_with_fates_quality_and_provenance() {
 
 mod writer_round_trip {
     use super::*;
-    use meshgaze::gaze::model::{Event, EventKind, Eye, EyeSample, Header, Message, Sample};
+    use meshgaze::gaze::recording::{Event, EventKind, Eye, EyeSample, Header, Message, Sample};
     use meshgaze::gaze::writers::{write_events_c1, write_samples_a};
 
     fn header() -> Header {

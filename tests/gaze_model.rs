@@ -11,11 +11,11 @@ use rand::SeedableRng;
 use meshgaze::gaze_model::surface_points::{parse_gaze_points, SurfacePoints};
 use meshgaze::gaze_model::{train_model, training_object, TrainOptions, TrainingObject};
 use meshgaze::mesh::{load_mesh, Mesh};
+use meshgaze::protocol::Protocol;
 use meshgaze::saliency::view_priors::{centre_prior, up_prior};
 use meshgaze::scoring::auc::auc_judd;
 use meshgaze::scoring::mesh_score::auc_judd_seen;
 use meshgaze::stimulus::hold_views::hold_view_exposure;
-use meshgaze::stimulus::protocol::Protocol;
 use meshgaze::truth::{load_ground_truth, GroundTruth};
 
 fn objects(points: &Path, names: &[&str], protocol: &Protocol) -> Vec<TrainingObject> {

@@ -18,13 +18,14 @@ use meshgaze::projection::{
     count_fates, project_fixations, ProjectionFate, ProjectionParams, RayCaster, ScreenFixation,
     ScreenMapping,
 };
+use meshgaze::protocol::DuringMove;
+use meshgaze::protocol::Protocol;
 use meshgaze::simulate::{
     round_trip, simulate_observers, ObserverParams, TargetModel, TrueFixation,
 };
 use meshgaze::stimulus::camera::{CameraPlan, Phase};
 use meshgaze::stimulus::load::load_stimulus;
-use meshgaze::stimulus::protocol::DuringMove;
-use meshgaze::stimulus::{render_stimulus, FrameImages, Protocol, StimulusOptions};
+use meshgaze::stimulus::{render_stimulus, FrameImages, StimulusOptions};
 use meshgaze::truth::fixation_truth_from_rows;
 
 fn hu2020() -> (Protocol, String) {

@@ -5,8 +5,9 @@ use std::process::Command;
 use std::sync::OnceLock;
 
 use glam::DVec3;
-use meshgaze::experiments::corruption::{add_normal_noise, transfer_by_nearest_vertex};
+use meshgaze::experiments::corruption::add_normal_noise;
 use meshgaze::mesh::geometry::{pearson, BoundingBox, Normalization};
+use meshgaze::mesh::transfer_by_nearest_vertex;
 use meshgaze::mesh::Mesh;
 use meshgaze::progress::Silent;
 use meshgaze::saliency::sms::descriptor_metric::{

@@ -3,11 +3,9 @@
 mod common;
 
 use meshgaze::progress::Silent;
-use meshgaze::stimulus::protocol::ProtocolError;
+use meshgaze::protocol::{Protocol, ProtocolError};
 use meshgaze::stimulus::raster::{Rasterizer, BACKGROUND_ID};
-use meshgaze::stimulus::{
-    render_stimulus, CameraPlan, FrameImages, Phase, Protocol, StimulusOptions,
-};
+use meshgaze::stimulus::{render_stimulus, CameraPlan, FrameImages, Phase, StimulusOptions};
 
 fn hu2020() -> (Protocol, String) {
     Protocol::load(&common::repo_root().join("protocols/hu2020.toml")).expect("hu2020 protocol")

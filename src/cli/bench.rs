@@ -467,7 +467,8 @@ struct StimulusCell {
 /// The protocol's full 48 s stimulus of the 50k armadillo (~100k triangles), rendered and
 /// encoded into a temporary folder, in this process.
 fn stimulus_cell(data: &Path) -> Result<StimulusCell> {
-    use meshgaze::stimulus::{render_stimulus, FrameImages, Protocol, StimulusOptions};
+    use meshgaze::protocol::Protocol;
+    use meshgaze::stimulus::{render_stimulus, FrameImages, StimulusOptions};
     let mesh_path = data.join("meshes/classic/decimated_profactor_50k/armadillo.obj");
     let (protocol, text) = Protocol::builtin();
     let (mesh, _) = load_mesh(&mesh_path)?;
@@ -482,7 +483,7 @@ fn stimulus_cell(data: &Path) -> Result<StimulusCell> {
         &mesh,
         &protocol,
         &text,
-        meshgaze::stimulus::protocol::BUILTIN_NAME,
+        meshgaze::protocol::BUILTIN_NAME,
         &out,
         &options,
         &Silent,

@@ -5,11 +5,12 @@ use anyhow::{Context, Result};
 use clap::Args;
 
 use meshgaze::mesh::{parse_mesh_bytes, LoadReport, Mesh, MeshFormat};
+use meshgaze::protocol::Protocol;
 use meshgaze::provenance::InputFile;
 use meshgaze::saliency::PAPER_METHODS;
 use meshgaze::scoring::{score_mesh, MeshScore, ScoreParams};
 use meshgaze::stimulus::load::{load_stimulus, LoadedStimulus};
-use meshgaze::stimulus::{render_stimulus, FrameImages, Protocol, StimulusOptions};
+use meshgaze::stimulus::{render_stimulus, FrameImages, StimulusOptions};
 
 use super::progress_bar::Bars;
 use meshgaze::file_bytes::create_output_dir;

@@ -8,10 +8,10 @@ use serde::Serialize;
 
 use meshgaze::experiments::robustness::{robustness, AgreementRow, RobustnessParams};
 use meshgaze::mesh::load_mesh;
+use meshgaze::protocol::Protocol;
 use meshgaze::provenance::{InputFile, Provenance};
 use meshgaze::saliency::{Method, SmsParams};
 use meshgaze::stimulus::camera::CameraPlan;
-use meshgaze::stimulus::Protocol;
 
 use super::progress_bar::Bars;
 use meshgaze::report::map_render::render_map;

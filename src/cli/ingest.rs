@@ -13,8 +13,8 @@ use meshgaze::gaze::ingest::{
 };
 use meshgaze::gaze::stimulus_messages::{classify_messages, message_census, stimulus_segments};
 use meshgaze::gaze::{read_smi, SmiFormat};
+use meshgaze::protocol::Protocol;
 use meshgaze::provenance::InputFile;
-use meshgaze::stimulus::Protocol;
 
 /// Read SMI eye-tracker exports, find fixations, apply the protocol's filter, report quality.
 ///

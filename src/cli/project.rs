@@ -7,8 +7,8 @@ use meshgaze::projection::fate_table_text;
 use meshgaze::projection::project_file::{
     parse_screen, project_files, write_projection, ProjectOptions,
 };
+use meshgaze::protocol::DuringMove;
 use meshgaze::stimulus::load::load_stimulus;
-use meshgaze::stimulus::protocol::DuringMove;
 
 use super::progress_bar::Bars;
 

@@ -3,8 +3,8 @@ use std::path::PathBuf;
 use anyhow::Result;
 use clap::{Args, Subcommand};
 
-use meshgaze::stimulus::protocol::{BUILTIN_NAME, BUILTIN_TOML};
-use meshgaze::stimulus::Protocol;
+use meshgaze::protocol::Protocol;
+use meshgaze::protocol::{BUILTIN_NAME, BUILTIN_TOML};
 
 /// Show the built-in experiment protocol, or check a protocol file.
 ///

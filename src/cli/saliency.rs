@@ -10,6 +10,7 @@ use meshgaze::gaze_model::GazeModel;
 use meshgaze::mesh::geometry::BoundingBox;
 use meshgaze::mesh::sampling::Sampling;
 use meshgaze::mesh::{load_mesh, LoadReport, Mesh};
+use meshgaze::protocol::Protocol;
 use meshgaze::provenance::InputFile;
 use meshgaze::saliency::map_file::{compute_and_write_map, output_prefix, MapOutputs};
 use meshgaze::saliency::sms::descriptors::{
@@ -19,7 +20,6 @@ use meshgaze::saliency::sms::gaussian_interpolation::min_max_normalize;
 use meshgaze::saliency::sms::gaussian_interpolation::InterpolationKind;
 use meshgaze::saliency::sms::truncated_power::PowerParams;
 use meshgaze::saliency::{FieldKind, Method, RarityParams, SmsParams, Viewing};
-use meshgaze::stimulus::protocol::Protocol;
 
 use super::progress_bar::Bars;
 

@@ -7,6 +7,7 @@ use serde::Serialize;
 
 use meshgaze::gaze_model::GazeModel;
 use meshgaze::mesh::load_mesh;
+use meshgaze::protocol::Protocol;
 use meshgaze::provenance::{InputFile, Provenance};
 use meshgaze::report::score_plots::write_score_plots;
 use meshgaze::saliency::map_file::output_prefix;
@@ -18,7 +19,6 @@ use meshgaze::scoring::dataset::{
 use meshgaze::scoring::surface_blur::BlurKernel;
 use meshgaze::scoring::{blur_grid, score_mesh, MeshScore, MethodSummary, ScoreParams, Weighting};
 use meshgaze::stimulus::hold_views::hold_view_exposure;
-use meshgaze::stimulus::protocol::Protocol;
 use meshgaze::truth::{load_ground_truth, GroundTruth};
 
 use super::progress_bar::Bars;

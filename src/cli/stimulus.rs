@@ -4,7 +4,8 @@ use anyhow::{Context, Result};
 use clap::Args;
 
 use meshgaze::mesh::load_mesh;
-use meshgaze::stimulus::{render_stimulus, FrameImages, Protocol, StimulusOptions};
+use meshgaze::protocol::Protocol;
+use meshgaze::stimulus::{render_stimulus, FrameImages, StimulusOptions};
 
 use super::progress_bar::Bars;
 

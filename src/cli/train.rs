@@ -4,23 +4,23 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use rayon::prelude::*;
 
-use meshgaze::gaze_model::boosted_trees::BoostParams;
-use meshgaze::gaze_model::cross_validation::{
+use meshgaze::experiments::gaze_model_cross_validation::{
     leave_one_object_out, mean_rows, CvRow, EvaluationMesh,
 };
+use meshgaze::gaze_model::boosted_trees::BoostParams;
 use meshgaze::gaze_model::{
     object_name, train_model, training_object, training_object_from_map, TrainOptions,
     TrainingObject,
 };
 use meshgaze::mesh::load_mesh;
 use meshgaze::progress::Progress;
+use meshgaze::protocol::Protocol;
 use meshgaze::provenance::{sha256_hex, InputFile};
 use meshgaze::report::html::thumbnail;
 use meshgaze::report::map_render::render_map;
 use meshgaze::scoring::dataset::dataset_pairs;
 use meshgaze::stimulus::camera::CameraPlan;
 use meshgaze::stimulus::load::load_stimulus;
-use meshgaze::stimulus::protocol::Protocol;
 use meshgaze::study::run::read_density;
 use meshgaze::truth::{load_ground_truth, GroundTruth};
 

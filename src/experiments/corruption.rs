@@ -32,29 +32,6 @@ fn standard_normal(rng: &mut ChaCha8Rng) -> f64 {
     (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
 }
 
-/// Values on `target` positions taken from the nearest vertex of a source mesh: carries a
-/// per-vertex map from a corrupted or simplified copy back to the original vertices.
-pub fn transfer_by_nearest_vertex(
-    source_positions: &[DVec3],
-    source_values: &[f64],
-    target_positions: &[DVec3],
-) -> Vec<f64> {
-    let pts: Vec<[f64; 3]> = source_positions.iter().map(|p| p.to_array()).collect();
-    let tree: ImmutableKdTree<f64, 3> =
-        ImmutableKdTree::new_from_slice(&pts).expect("fewer than 2^32 vertices");
-    // Each target's query is its own: in parallel, the same values in the same order.
-    target_positions
-        .par_iter()
-        .map(|p| {
-            let hit = tree
-                .query(&p.to_array())
-                .nearest_one::<SquaredEuclidean<f64>>()
-                .execute();
-            source_values[hit.item as usize]
-        })
-        .collect()
-}
-
 /// Cuts `holes` patches out of the surface: around seeded random vertices, every triangle
 /// with a corner within `radius` (Euclidean) goes, and vertices no triangle uses any more are
 /// dropped. Returns the damaged mesh and, for each of its vertices, the input vertex it was.

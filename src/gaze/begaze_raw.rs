@@ -3,7 +3,7 @@
 //! `-` for missing values; TAB natively, other separators when re-exported (the shared ETG
 //! file is a pandas comma re-export). Times are milliseconds since the recording started and
 //! become integer microseconds.
-use super::model::{EyeSample, GazeError, Header, Recording, RowAccount, Sample, SmiFormat};
+use super::recording::{EyeSample, GazeError, Header, Recording, RowAccount, Sample, SmiFormat};
 use super::text::{decode, header_row, lines, number, table_row, Separator};
 
 pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {

@@ -4,7 +4,9 @@
 //! (`Event Start Trial Time [ms]`), so each event carries its `Stimulus`. Event classification
 //! comes as `Category` + `Eye L/R`, or as per-eye `Category Left/Right/Binocular` columns.
 //! Written from the documented column names: no real file of this format was available.
-use super::model::{Event, EventKind, Eye, GazeError, Header, Recording, RowAccount, SmiFormat};
+use super::recording::{
+    Event, EventKind, Eye, GazeError, Header, Recording, RowAccount, SmiFormat,
+};
 use super::text::{decode, header_row, is_missing, lines, number, table_row, Separator};
 
 /// The field under the column called `name`.

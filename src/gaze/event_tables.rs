@@ -6,7 +6,7 @@
 use std::collections::HashMap;
 
 use super::idf_samples::parse_header_line;
-use super::model::{
+use super::recording::{
     Event, EventKind, Eye, GazeError, Header, Message, Recording, RowAccount, SmiFormat,
 };
 use super::text::{integer, lines, message_text, number, split, Separator};

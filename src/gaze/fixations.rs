@@ -4,7 +4,7 @@
 //! fixation keeps its fate; none disappears.
 use serde::{Deserialize, Serialize};
 
-use super::model::{EventKind, Eye, EyeSample, Recording, Sample};
+use super::recording::{EventKind, Eye, EyeSample, Recording, Sample};
 use super::stimulus_messages::{
     classify_messages, place, stimulus_segments, Placement, Segmentation, StimulusSegment,
 };

@@ -1,7 +1,7 @@
 //! Format A (IDF Converter) and A' (BeGaze) sample text: a `##` header, a TAB column-header
 //! line found by content (`Time` and `Type`), then `SMP` rows (one value per column) and `MSG`
 //! rows (`Time MSG Trial # Message: text`). Columns are picked by name, never by position.
-use super::model::{
+use super::recording::{
     EyeSample, GazeError, Header, Message, Recording, RowAccount, Sample, SmiFormat,
 };
 use super::text::{integer, lines, number, split, Separator};
@@ -151,7 +151,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             let e = rows
                 .unusable
                 .entry(reason)
-                .or_insert(super::model::FirstSeen {
+                .or_insert(super::recording::FirstSeen {
                     count: 0,
                     ..first.clone()
                 });

@@ -11,14 +11,14 @@ use super::fixation_table::{write_fixations_csv, FixationRow};
 use super::fixations::{
     apply_protocol_filter, fixations, Detector, DetectorParams, EyePolicy, Fate, Fixation,
 };
-use super::model::{EyeSample, Header, Recording, RowAccount, SmiFormat};
 use super::quality::{quality, QualityRow};
 use super::read_smi;
+use super::recording::{EyeSample, Header, Recording, RowAccount, SmiFormat};
 use super::stimulus_messages::{
     classify_messages, ClassifiedMessage, Segmentation, StimulusPattern,
 };
+use crate::protocol::Protocol;
 use crate::provenance::{InputFile, Provenance};
-use crate::stimulus::Protocol;
 
 /// The protocol's fixation filter (paper §4: drop the first and last two, keep the 15 longest).
 #[derive(Debug, Clone, Copy, Serialize)]
@@ -47,7 +47,7 @@ impl IngestParams {
     /// The protocol's detector settings, filter and stimulus rules; `pattern` (start, end)
     /// overrides the protocol's stimulus patterns.
     pub fn from_protocol(
-        protocol: &crate::stimulus::Protocol,
+        protocol: &crate::protocol::Protocol,
         pattern: Option<(&str, Option<&str>)>,
     ) -> Result<IngestParams, String> {
         let rules = &protocol.fixations;

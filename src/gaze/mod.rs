@@ -8,15 +8,15 @@ pub mod fixation_table;
 pub mod fixations;
 pub mod idf_samples;
 pub mod ingest;
-pub mod model;
 pub mod quality;
+pub mod recording;
 pub mod stimulus_messages;
 pub mod text;
 pub mod writers;
 
 use std::path::Path;
 
-pub use model::{
+pub use recording::{
     Event, EventKind, Eye, EyeSample, GazeError, Message, Recording, Sample, SmiFormat,
 };
 

@@ -6,7 +6,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use super::fixations::{resolve_policy, sample_interval_us, EyePolicy, Fate, Fixation};
-use super::model::Recording;
+use super::recording::Recording;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct QualityRow {

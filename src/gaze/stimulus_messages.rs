@@ -9,7 +9,7 @@ use std::collections::BTreeMap;
 use regex::Regex;
 use serde::Serialize;
 
-use super::model::{Message, Recording};
+use super::recording::{Message, Recording};
 
 /// File extensions that make a message name a stimulus.
 pub const STIMULUS_EXTENSIONS: [&str; 22] = [

@@ -51,9 +51,9 @@ impl Separator {
 pub(crate) fn header_row(
     lines: &[(usize, &str)],
     path: &str,
-) -> Result<(Separator, Vec<String>), super::model::GazeError> {
+) -> Result<(Separator, Vec<String>), super::recording::GazeError> {
     let Some(&(_, first)) = lines.first() else {
-        return Err(super::model::GazeError::File {
+        return Err(super::recording::GazeError::File {
             path: path.to_string(),
             message: "the file is empty".into(),
         });
@@ -73,7 +73,7 @@ pub(crate) fn table_row<'a>(
     no: usize,
     sep: Separator,
     n_columns: usize,
-    rows: &mut super::model::RowAccount,
+    rows: &mut super::recording::RowAccount,
 ) -> Option<Vec<(usize, &'a str)>> {
     if line.trim().is_empty() {
         rows.blank_lines += 1;

@@ -5,7 +5,7 @@
 //! tracking-loss value.
 use std::fmt::Write;
 
-use super::model::{Event, EventKind, Eye, Header, Message, Sample};
+use super::recording::{Event, EventKind, Eye, Header, Message, Sample};
 
 fn opt(v: Option<f64>) -> String {
     v.map_or("-".to_string(), |x| format!("{x}"))
@@ -66,7 +66,7 @@ pub fn write_samples_a(header: &Header, samples: &[Sample], messages: &[Message]
             j += 1;
         } else {
             let p = &samples[i];
-            let eye = |e: Option<super::model::EyeSample>| match e {
+            let eye = |e: Option<super::recording::EyeSample>| match e {
                 Some(e) => (
                     format!("{}", e.x),
                     format!("{}", e.y),

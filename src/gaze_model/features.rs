@@ -6,7 +6,7 @@ use glam::DVec3;
 use super::local_shape::local_shape;
 use super::surface_points::SurfacePoints;
 use super::view_visibility::{bounds, view_exposure};
-use crate::stimulus::protocol::Protocol;
+use crate::protocol::Protocol;
 
 /// Ball radii of the local-shape features, as fractions of the object's radius.
 pub const SHAPE_RADII: [f64; 4] = [0.04, 0.08, 0.16, 0.32];

@@ -6,7 +6,7 @@
 //! files, 44 objects, 29 of them with no mesh), so every feature is computed from points
 //! and normals alone; a mesh is predicted from its vertices and vertex normals.
 pub mod boosted_trees;
-pub mod cross_validation;
+
 pub mod features;
 pub mod local_shape;
 pub mod surface_points;
@@ -21,8 +21,8 @@ use serde::{Deserialize, Serialize};
 use self::boosted_trees::{BoostParams, BoostedTrees};
 use self::features::{feature_names, point_features, FeatureMatrix};
 use self::surface_points::{read_gaze_points, SurfacePoints};
+use crate::protocol::Protocol;
 use crate::provenance::sha256_hex;
-use crate::stimulus::protocol::Protocol;
 
 /// The model shipped with meshgaze, trained on every object of ../shared/data/fixations-vr/
 /// points by `meshgaze train --dataset ../shared/data/fixations-vr -o models/gaze-vr.json`.

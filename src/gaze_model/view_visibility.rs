@@ -5,8 +5,8 @@
 use glam::DVec3;
 
 use super::surface_points::SurfacePoints;
+use crate::protocol::Protocol;
 use crate::stimulus::camera::{CameraPlan, Phase};
-use crate::stimulus::protocol::Protocol;
 
 /// Per point, what the protocol's hold views show of it.
 #[derive(Debug, Clone, Default, PartialEq)]

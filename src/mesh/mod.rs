@@ -8,6 +8,7 @@ pub mod edge_graph;
 mod error;
 pub mod geometry;
 pub mod mean_curvature;
+pub mod nearest_vertex_transfer;
 mod obj;
 mod off;
 pub mod over_segmentation;
@@ -19,6 +20,7 @@ mod subdivide;
 mod write_ply;
 
 pub use error::MeshError;
+pub use nearest_vertex_transfer::transfer_by_nearest_vertex;
 pub use read::{load_mesh, parse_mesh_bytes, MeshFormat};
 pub use subdivide::subdivide_midpoint;
 pub use write_ply::{write_ply_with_quality, ColorRamp, ColorScale};

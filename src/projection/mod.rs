@@ -6,14 +6,15 @@
 //! Every fixation ends with exactly one [`ProjectionFate`]; nothing is dropped.
 pub mod project_file;
 pub mod ray_caster;
+pub mod round_trip;
 pub mod self_check;
 pub mod table;
 
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
+use crate::protocol::DuringMove;
 use crate::stimulus::camera::{CameraPlan, CameraState, Phase};
-use crate::stimulus::protocol::DuringMove;
 pub use ray_caster::{nearest_corner, Hit, RayCaster};
 
 /// What became of a fixation.

@@ -15,10 +15,10 @@ use super::{
 };
 use crate::gaze::fixation_table::{read_fixations_csv, FixationRow};
 use crate::progress::Progress;
+use crate::projection::round_trip::{read_targets_csv, round_trip, RoundTrip};
+use crate::protocol::DuringMove;
 use crate::provenance::{InputFile, Provenance};
-use crate::simulate::{read_targets_csv, round_trip, RoundTrip};
 use crate::stimulus::load::LoadedStimulus;
-use crate::stimulus::protocol::DuringMove;
 
 /// `WIDTHxHEIGHT` in pixels.
 pub fn parse_screen(s: &str) -> Result<(f64, f64)> {

@@ -3,9 +3,9 @@
 use image::{Rgb, RgbImage};
 
 use crate::mesh::{ColorRamp, ColorScale, Mesh};
+use crate::protocol::Protocol;
 use crate::stimulus::camera::CameraPlan;
 use crate::stimulus::raster::Rasterizer;
-use crate::stimulus::Protocol;
 
 /// Renders `mesh` painted with a map under the camera of hold `viewpoint` of `plan`, coloured
 /// by [`ColorScale`] (1st to 99th percentile, blue to red), with a colour bar along the bottom.

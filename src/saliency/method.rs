@@ -16,7 +16,7 @@ use crate::gaze_model::surface_points::SurfacePoints;
 use crate::gaze_model::GazeModel;
 use crate::mesh::Mesh;
 use crate::progress::Progress;
-use crate::stimulus::protocol::Protocol;
+use crate::protocol::Protocol;
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]

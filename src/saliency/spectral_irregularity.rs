@@ -19,10 +19,10 @@ use faer::Mat;
 use serde::Serialize;
 
 use super::sms::gaussian_interpolation::min_max_normalize;
-use crate::experiments::corruption::transfer_by_nearest_vertex;
 use crate::mesh::clustered_gaussian_average::{clustered_gaussian_average, GaussianSum};
 use crate::mesh::geometry::{BoundingBox, Normalization};
 use crate::mesh::simplification::simplify_to_vertex_count;
+use crate::mesh::transfer_by_nearest_vertex;
 use crate::mesh::Mesh;
 use crate::scoring::surface_blur::{vertex_areas, SurfaceBlur};
 

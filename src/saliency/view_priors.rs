@@ -5,8 +5,8 @@ use glam::DVec3;
 use super::sms::gaussian_interpolation::min_max_normalize;
 use crate::gaze_model::features::up_and_front;
 use crate::mesh::Mesh;
+use crate::protocol::Protocol;
 use crate::stimulus::hold_views::hold_view_exposure;
-use crate::stimulus::protocol::Protocol;
 
 /// Height along the protocol's up axis, scaled to [0, 1] over the mesh.
 pub fn up_prior(mesh: &Mesh, protocol: &Protocol) -> Vec<f64> {

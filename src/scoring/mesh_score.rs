@@ -9,9 +9,9 @@ use serde::{Deserialize, Serialize};
 use crate::mesh::geometry::{BoundingBox, Normalization};
 use crate::mesh::Mesh;
 use crate::progress::Progress;
+use crate::scoring::ground_truth::GroundTruth;
 use crate::scoring::surface_blur::{vertex_areas, BlurKernel, MeshBlur};
 use crate::scoring::{auc_borji, auc_judd, gini_index, kl_divergence, lcc, nss, sim};
-use crate::truth::GroundTruth;
 
 /// How vertices count in the metrics.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -329,7 +329,7 @@ pub fn auc_judd_seen(
 
 /// The split-half human ceiling at one blur: (metric, mean over splits) for AUC-Judd, LCC, NSS.
 fn human_ceiling(
-    fixations: &crate::truth::FixationTruth,
+    fixations: &crate::scoring::ground_truth::FixationTruth,
     subject_maps: &[Vec<f64>],
     splits: &[(Vec<usize>, Vec<usize>)],
     weights: Option<&[f64]>,

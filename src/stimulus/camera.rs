@@ -8,8 +8,8 @@
 use glam::{DMat3, DMat4, DQuat, DVec3, DVec4};
 use serde::Serialize;
 
-use super::protocol::{Protocol, ViewpointGenerator};
 use crate::mesh::Mesh;
+use crate::protocol::{Protocol, ViewpointGenerator};
 
 /// What is on screen at an instant.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -99,7 +99,7 @@ pub struct CameraPlan {
     hold_s: f64,
     move_s: f64,
     #[serde(skip)]
-    easing: super::protocol::Easing,
+    easing: crate::protocol::Easing,
     return_to_first: bool,
     duration_s: f64,
     width_px: u32,

@@ -5,9 +5,9 @@
 use glam::DVec3;
 
 use super::camera::CameraPlan;
-use super::protocol::Protocol;
 use super::raster::{Rasterizer, BACKGROUND_ID};
 use crate::mesh::Mesh;
+use crate::protocol::Protocol;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct HoldViewExposure {

@@ -7,9 +7,9 @@ use std::path::{Path, PathBuf};
 use serde_json::Value;
 
 use super::camera::CameraPlan;
-use super::protocol::Protocol;
 use super::{timeline_header, timeline_row};
 use crate::mesh::{load_mesh, LoadReport, Mesh};
+use crate::protocol::Protocol;
 use crate::provenance::{sha256_hex, InputFile};
 
 /// A stimulus whose files were checked against its manifest.

@@ -5,7 +5,7 @@ pub mod h264_repeat;
 pub mod hold_views;
 pub mod load;
 pub mod overlay;
-pub mod protocol;
+
 pub mod raster;
 pub mod video;
 
@@ -17,10 +17,10 @@ use std::time::Instant;
 use serde::Serialize;
 
 pub use camera::{CameraPlan, CameraState, Phase};
-pub use protocol::Protocol;
 
 use crate::mesh::Mesh;
 use crate::progress::Progress;
+use crate::protocol::Protocol;
 use crate::provenance::{sha256_hex, InputFile, Provenance};
 use raster::Rasterizer;
 

@@ -1,7 +1,7 @@
 //! Sync aids drawn on frames: a photodiode patch (white during holds, black during moves)
 //! and a burned-in frame counter (seven-segment digits, no font needed).
 use super::camera::Phase;
-use super::protocol::{Corner, Sync};
+use crate::protocol::{Corner, Sync};
 
 /// Fills the rectangle [x0, x1) × [y0, y1) with grey level `c`.
 fn fill(rgb: &mut [u8], w: usize, h: usize, (x0, y0, x1, y1): (usize, usize, usize, usize), c: u8) {

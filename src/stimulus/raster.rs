@@ -8,8 +8,8 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use super::camera::CameraState;
-use super::protocol::Rendering;
 use crate::mesh::Mesh;
+use crate::protocol::Rendering;
 use std::marker::PhantomData;
 
 pub const BACKGROUND_ID: u32 = u32::MAX;
@@ -757,8 +757,8 @@ impl RowEdges {
 mod tests {
     use super::*;
     use crate::mesh::mean_curvature::test_meshes::icosphere;
+    use crate::protocol::Protocol;
     use crate::stimulus::camera::CameraPlan;
-    use crate::stimulus::protocol::Protocol;
 
     fn ids_and_frame(mesh: &Mesh, cull: bool, view: usize) -> (Vec<u32>, Vec<u8>) {
         let (protocol, _) = Protocol::builtin();

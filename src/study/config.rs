@@ -4,8 +4,8 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use serde::Deserialize;
 
+use crate::protocol::Protocol;
 use crate::saliency::{Method, RarityParams, PAPER_METHODS};
-use crate::stimulus::Protocol;
 
 /// The file as written (see docs/study.md).
 #[derive(Debug, Clone, Deserialize)]

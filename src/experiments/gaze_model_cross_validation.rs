@@ -3,17 +3,17 @@
 //! chance, plain and with the never-shown vertices left out of the negatives.
 use serde::Serialize;
 
-use super::features::ranks;
-use super::surface_points::SurfacePoints;
-use super::{train_model, TrainOptions, TrainingObject};
+use crate::gaze_model::features::ranks;
+use crate::gaze_model::surface_points::SurfacePoints;
+use crate::gaze_model::{train_model, TrainOptions, TrainingObject};
 use crate::mesh::Mesh;
 use crate::progress::Progress;
+use crate::protocol::Protocol;
 use crate::saliency::{compute_saliency_viewed, Method, SmsParams, Viewing};
 use crate::scoring::auc::auc_judd;
 use crate::scoring::map_agreement::lcc;
 use crate::scoring::mesh_score::{auc_judd_seen, chance_maps};
 use crate::stimulus::hold_views::hold_view_exposure;
-use crate::stimulus::protocol::Protocol;
 
 /// A mesh with per-vertex human truth.
 pub struct EvaluationMesh {

@@ -232,7 +232,7 @@ impl Display {
 
 /// The paper's protocol (protocols/hu2020.toml), compiled into the binary so no default
 /// depends on the working directory.
-pub const BUILTIN_TOML: &str = include_str!("../../protocols/hu2020.toml");
+pub const BUILTIN_TOML: &str = include_str!("../protocols/hu2020.toml");
 /// How the built-in protocol is named in provenance and messages.
 pub const BUILTIN_NAME: &str = "built-in:hu2020.toml";
 
