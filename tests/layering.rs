@@ -137,7 +137,11 @@ fn no_folder_imports_one_above_it() {
         assert!(ORDER.contains(&f.as_str()), "folder {f} missing from ORDER");
     }
     let bad = violations(&files);
-    assert!(bad.is_empty(), "imports against the order:\n{}", bad.join("\n"));
+    assert!(
+        bad.is_empty(),
+        "imports against the order:\n{}",
+        bad.join("\n")
+    );
 }
 
 #[test]
@@ -153,8 +157,7 @@ fn the_checker_sees_upward_sideways_and_grouped_imports() {
         ),
         (
             PathBuf::from("scoring/auc.rs"),
-            "fn f() { let _ = crate::truth::load(); }\n// crate::study in a comment\n"
-                .to_string(),
+            "fn f() { let _ = crate::truth::load(); }\n// crate::study in a comment\n".to_string(),
         ),
         (PathBuf::from("newfolder/x.rs"), String::new()),
     ];

@@ -5,26 +5,27 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 /// The export formats (names as in shared/docs/smi-formats.md).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 pub enum SmiFormat {
     /// IDF Converter sample text: `## [iView]` header, TSV, `Time` in µs, `MSG` rows.
-    #[value(name = "a")]
+    #[cfg_attr(feature = "cli", value(name = "a"))]
     #[serde(rename = "A")]
     IdfSamples,
     /// BeGaze sample export: `## [BeGaze]` (or a blanked `##` header), per-eye `Event Info`.
-    #[value(name = "a-begaze")]
+    #[cfg_attr(feature = "cli", value(name = "a-begaze"))]
     #[serde(rename = "A'")]
     BeGazeSamples,
     /// IDF Event Detector / BeGaze event text: `Table Header for …` sections.
-    #[value(name = "c1")]
+    #[cfg_attr(feature = "cli", value(name = "c1"))]
     #[serde(rename = "C1")]
     EventTables,
     /// BeGaze "Raw Data" export: `RecordingTime [ms]`, one row per sample, `-` for missing.
-    #[value(name = "c2")]
+    #[cfg_attr(feature = "cli", value(name = "c2"))]
     #[serde(rename = "C2")]
     BeGazeRaw,
     /// BeGaze Metrics Export "Event Statistics": one row per event, times in ms from trial start.
-    #[value(name = "b")]
+    #[cfg_attr(feature = "cli", value(name = "b"))]
     #[serde(rename = "B")]
     EventStatistics,
 }

@@ -97,7 +97,8 @@ pub fn symmetric_eigen3(m: DMat3) -> ([f64; 3], DMat3) {
 }
 
 /// Which bounding box defines the mesh "radius" (half its diagonal) in the normalization.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum BoundingBox {
     /// Box along the principal axes of the surface: the same for any rotation of the mesh,

@@ -46,17 +46,8 @@ pub fn sample_surface(mesh: &Mesh, n: usize, seed: u64) -> Vec<SurfaceSample> {
 }
 
 /// How surface samples are placed.
-#[derive(
-    Debug,
-    Clone,
-    Copy,
-    PartialEq,
-    Eq,
-    Default,
-    serde::Serialize,
-    serde::Deserialize,
-    clap::ValueEnum,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Sampling {
     /// Independent uniform points by area (the paper's "random points", §3.2).

@@ -18,19 +18,8 @@ use crate::stimulus::camera::{CameraPlan, CameraState, Phase};
 pub use ray_caster::{nearest_corner, Hit, RayCaster};
 
 /// What became of a fixation.
-#[derive(
-    Debug,
-    Clone,
-    Copy,
-    PartialEq,
-    Eq,
-    PartialOrd,
-    Ord,
-    Hash,
-    Serialize,
-    Deserialize,
-    clap::ValueEnum,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
 pub enum ProjectionFate {
     /// The ray hit the mesh.

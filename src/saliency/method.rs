@@ -18,7 +18,8 @@ use crate::mesh::Mesh;
 use crate::progress::Progress;
 use crate::protocol::Protocol;
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Method {
     /// Sparse metric-based saliency (Hu et al. 2020).

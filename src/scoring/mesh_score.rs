@@ -14,7 +14,8 @@ use crate::scoring::surface_blur::{vertex_areas, BlurKernel, MeshBlur};
 use crate::scoring::{auc_borji, auc_judd, gini_index, kl_divergence, lcc, nss, sim};
 
 /// How vertices count in the metrics.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum Weighting {
     /// Every vertex counts once (as the papers do).

@@ -139,9 +139,8 @@ impl SurfaceBlur {
 }
 
 /// Which kernel blurs maps over the surface.
-#[derive(
-    Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize, clap::ValueEnum,
-)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum BlurKernel {
     /// Euclidean Gaussian (cut at 3σ): fast, but leaks between parts that are close

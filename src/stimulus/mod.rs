@@ -25,7 +25,8 @@ use crate::provenance::{sha256_hex, InputFile, Provenance};
 use raster::Rasterizer;
 
 /// Which frames to also write as PNG.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum FrameImages {
     None,

@@ -9,7 +9,8 @@ use crate::mesh::geometry::{BoundingBox, Normalization};
 use crate::mesh::Mesh;
 
 /// What the feature points' minimum separation is measured in.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum SeparationUnit {
     /// Half the principal-axes bounding-box diagonal = 1.

@@ -27,7 +27,8 @@ use crate::saliency::sms::descriptors::{
 use crate::scoring::gini_index;
 
 /// Where descriptor samples read the Gaussian distance field from.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum FieldKind {
     /// A res³ grid read by trilinear interpolation (the paper's 256³).

@@ -10,7 +10,8 @@ use super::gaussian_distance_field::GaussianField;
 use super::spherical_harmonics::{real_spherical_harmonics, SphereQuadrature};
 
 /// How shell samples are weighted before the transform.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum ShellWeight {
     /// Multiply by r·√(4π), the square root of the shell's area, as ShapeSPH does: larger
@@ -21,7 +22,8 @@ pub enum ShellWeight {
 }
 
 /// Whether each scale's descriptor is rescaled.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum DescriptorNormalization {
     /// Keep magnitudes: how much surface a ball holds is part of its shape.
@@ -31,7 +33,8 @@ pub enum DescriptorNormalization {
 }
 
 /// How many quadrature rings each shell gets.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum QuadratureRule {
     /// `quadrature_rings` on every shell.
