@@ -6,22 +6,21 @@ use std::path::PathBuf;
 use meshgaze::gaze::{parse_smi, read_smi, EventKind, Eye, Recording, SmiFormat};
 use proptest::prelude::*;
 
-fn smi(name: &str) -> Option<PathBuf> {
-    common::shared_data(name).map(|d| d.join("smi").join(name))
+fn smi(name: &str) -> PathBuf {
+    common::shared_data().join("smi").join(name)
 }
 
-fn read(name: &str) -> Option<Recording> {
-    let r = read_smi(&smi(name)?, None).unwrap_or_else(|e| panic!("{e}"));
+fn read(name: &str) -> Recording {
+    let r = read_smi(&smi(name), None).unwrap_or_else(|e| panic!("{e}"));
     // Nothing unaccounted for: every line is header, blank, sample, message, event or counted.
     assert_eq!(r.rows.accounted(), r.rows.lines, "{name}: {:?}", r.rows);
-    Some(r)
+    r
 }
 
 #[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn hbn_samples_binocular_60hz_with_anonymised_header() {
-    let Some(r) = read("hbn-sccn__NDARAA075AMK_Video1_Samples.txt") else {
-        return;
-    };
+    let r = read("hbn-sccn__NDARAA075AMK_Video1_Samples.txt");
     assert_eq!(r.format, SmiFormat::IdfSamples);
     assert_eq!(
         (r.rows.samples, r.rows.messages, r.rows.unusable_total()),
@@ -68,10 +67,9 @@ fn hbn_samples_binocular_60hz_with_anonymised_header() {
 }
 
 #[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn emip_samples_with_pauses_and_identical_eyes() {
-    let Some(r) = read("emip__156_rawdata.tsv") else {
-        return;
-    };
+    let r = read("emip__156_rawdata.tsv");
     assert_eq!((r.rows.samples, r.rows.messages), (10939, 12));
     assert_eq!(r.header.calibration_area_px, Some([1920.0, 1080.0]));
     assert_eq!(r.header.subject.as_deref(), Some("156"));
@@ -90,10 +88,9 @@ fn emip_samples_with_pauses_and_identical_eyes() {
 }
 
 #[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn didec_begaze_samples_with_event_info_and_stimulus() {
-    let Some(r) = read("pymovements__didec_example.txt") else {
-        return;
-    };
+    let r = read("pymovements__didec_example.txt");
     assert_eq!(r.format, SmiFormat::BeGazeSamples);
     assert_eq!((r.rows.samples, r.rows.messages), (15, 1));
     assert_eq!(r.samples[0].stimulus.as_deref(), Some("test.bmp"));
@@ -107,10 +104,9 @@ fn didec_begaze_samples_with_event_info_and_stimulus() {
 }
 
 #[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn hbn_events_with_tabs_turned_into_spaces_match_the_samples_clock() {
-    let Some(r) = read("hbn-sccn__NDARAA075AMK_Video1_Events.txt") else {
-        return;
-    };
+    let r = read("hbn-sccn__NDARAA075AMK_Video1_Events.txt");
     assert_eq!(r.format, SmiFormat::EventTables);
     assert!(r.notes.iter().any(|n| n.contains("spaces")));
     assert_eq!(r.rows.messages, 3);
@@ -132,10 +128,9 @@ fn hbn_events_with_tabs_turned_into_spaces_match_the_samples_clock() {
 }
 
 #[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn zv1n_events_87_trials_tab_separated() {
-    let Some(r) = read("zv1n-pygaze__events.txt") else {
-        return;
-    };
+    let r = read("zv1n-pygaze__events.txt");
     assert_eq!(r.header.sample_rate_hz, Some(50.0));
     assert_eq!(
         r.header.date.map(|d| d.to_string()).as_deref(),
@@ -183,10 +178,9 @@ fn malformed_or_unknown_files_say_what_and_where() {
 }
 
 #[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn etg_begaze_raw_data_comma_reexport() {
-    let Some(r) = read("xiangguo-etg__Ethan_lane_1-1-recording.csv") else {
-        return;
-    };
+    let r = read("xiangguo-etg__Ethan_lane_1-1-recording.csv");
     assert_eq!(r.format, SmiFormat::BeGazeRaw);
     assert_eq!((r.rows.samples, r.rows.unusable_total()), (11_111, 0));
     assert!(r.notes.iter().any(|n| n.contains("re-exported")));
@@ -236,9 +230,7 @@ fn bad_rows_are_counted_with_their_position_never_dropped_silently() {
 }
 
 fn real_files() -> Vec<Vec<u8>> {
-    let Some(d) = common::shared_data("fuzzing the SMI readers with real bytes") else {
-        return Vec::new();
-    };
+    let d = common::shared_data();
     [
         "hbn-sccn__NDARAA075AMK_Video1_Samples.txt",
         "hbn-sccn__NDARAA075AMK_Video1_Events.txt",
@@ -266,19 +258,18 @@ proptest! {
     }
 
     #[test]
+    #[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
     fn mutated_real_files_never_panic_and_account_for_every_line(which in 0usize..6, seed in any::<u64>(), edits in 1usize..20) {
         let files = real_files();
-        if !files.is_empty() {
-            let mut b = files[which].clone();
-            let mut s = seed | 1;
-            let mut next = || { s ^= s << 13; s ^= s >> 7; s ^= s << 17; s };
-            for _ in 0..edits {
-                let i = (next() as usize) % b.len();
-                b[i] = match next() % 5 { 0 => b'\t', 1 => b'\n', 2 => b'-', 3 => b' ', _ => next() as u8 };
-            }
-            if let Ok(r) = parse_smi(&b, "mutated", None) {
-                prop_assert_eq!(r.rows.accounted(), r.rows.lines);
-            }
+        let mut b = files[which].clone();
+        let mut s = seed | 1;
+        let mut next = || { s ^= s << 13; s ^= s >> 7; s ^= s << 17; s };
+        for _ in 0..edits {
+            let i = (next() as usize) % b.len();
+            b[i] = match next() % 5 { 0 => b'\t', 1 => b'\n', 2 => b'-', 3 => b' ', _ => next() as u8 };
+        }
+        if let Ok(r) = parse_smi(&b, "mutated", None) {
+            prop_assert_eq!(r.rows.accounted(), r.rows.lines);
         }
     }
 }
@@ -393,13 +384,12 @@ mod fixation_tests {
     }
 
     #[test]
+    #[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
     fn fixations_from_real_event_and_sample_files_agree_in_scale() {
-        let (Some(s), Some(e)) = (
+        let (s, e) = (
             read("hbn-sccn__NDARAA075AMK_Video1_Samples.txt"),
             read("hbn-sccn__NDARAA075AMK_Video1_Events.txt"),
-        ) else {
-            return;
-        };
+        );
         // HBN's messages are bare trigger numbers (9999, 81, 101): no file name, so they
         // start a stimulus only under a pattern, as a user would give it.
         let numbered = meshgaze::gaze::stimulus_messages::Segmentation {
@@ -456,13 +446,12 @@ mod fixation_tests {
 }
 
 #[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn ingest_command_writes_fixations_with_fates_quality_and_provenance() {
-    let (Some(s), Some(e)) = (
+    let (s, e) = (
         smi("hbn-sccn__NDARAA075AMK_Video1_Samples.txt"),
         smi("hbn-sccn__NDARAA075AMK_Video1_Events.txt"),
-    ) else {
-        return;
-    };
+    );
     let out = std::env::temp_dir().join(format!("meshgaze-ingest-{}", std::process::id()));
     let ingest = |files: &[&std::path::Path]| {
         std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))

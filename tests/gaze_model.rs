@@ -45,10 +45,9 @@ fn vr_mesh(data: &Path, name: &str) -> (Mesh, Vec<bool>) {
 /// that could read the answer from somewhere other than the shape would pass the first
 /// check and fail the second.)
 #[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn held_out_bunny_is_predicted_and_shuffled_labels_teach_nothing() {
-    let Some(data) = common::shared_data("held_out_bunny_is_predicted") else {
-        return;
-    };
+    let data = common::shared_data();
     let (protocol, _) = Protocol::builtin();
     let names = [
         "cow", "dinosaur", "horse", "hand", "igea", "cat", "dog", "wolf", "lion", "gorilla",
@@ -95,11 +94,9 @@ fn held_out_bunny_is_predicted_and_shuffled_labels_teach_nothing() {
 /// The committed built-in model is exactly what README's command trains (same bytes), so it
 /// can be rebuilt from ../shared/data alone.
 #[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn the_builtin_model_is_what_the_documented_command_trains() {
-    let Some(data) = common::shared_data("the_builtin_model_is_what_the_documented_command_trains")
-    else {
-        return;
-    };
+    let data = common::shared_data();
     let out = std::env::temp_dir().join(format!("meshgaze-builtin-{}.json", std::process::id()));
     let status = std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
         .args(["train", "--quiet", "--dataset"])
@@ -121,10 +118,9 @@ fn the_builtin_model_is_what_the_documented_command_trains() {
 
 /// `score --method gaze` on an object the model was trained on is refused, naming why.
 #[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn scoring_the_model_on_its_own_training_object_is_refused() {
-    let Some(data) = common::shared_data("scoring_the_model_on_its_own_training_object") else {
-        return;
-    };
+    let data = common::shared_data();
     let vr = data.join("fixations-vr");
     let out = std::env::temp_dir().join(format!("meshgaze-refuse-{}", std::process::id()));
     let o = std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
@@ -249,10 +245,9 @@ proptest! {
 /// A dataset of meshes with per-vertex truth and no points files trains too: each mesh is
 /// one object, its top 5% vertices by truth value the positives.
 #[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn meshes_with_truth_are_training_objects() {
-    let Some(data) = common::shared_data("meshes_with_truth_are_training_objects") else {
-        return;
-    };
+    let data = common::shared_data();
     let vr = data.join("fixations-vr");
     let dir = std::env::temp_dir().join(format!("meshgaze-meshds-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);

@@ -151,10 +151,9 @@ fn impossible_corruptions_and_empty_meshes_are_refused_by_name() {
 /// `bench --case NAME --method NAME` times one cell in its own process and reports its peak
 /// memory; an unknown case is named with the list of cases.
 #[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn bench_times_one_cell_alone() {
-    let Some(data) = common::shared_data("bench_times_one_cell_alone") else {
-        return;
-    };
+    let data = common::shared_data();
     let bench = |args: &[&str]| {
         std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
             .arg("bench")
@@ -197,12 +196,9 @@ fn bench_times_one_cell_alone() {
 }
 
 #[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn the_stimulus_bench_cell_reports_its_frames_and_its_own_peak_memory() {
-    let Some(data) =
-        common::shared_data("the_stimulus_bench_cell_reports_its_frames_and_its_own_peak_memory")
-    else {
-        return;
-    };
+    let data = common::shared_data();
     let out = std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
         .args(["bench", "--child", "--data"])
         .arg(&data)

@@ -81,10 +81,9 @@ fn fixation_sets_count_what_missed_the_mesh() {
 }
 
 #[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn shared_vr_truth_files_read_with_their_flags() {
-    let Some(data) = common::shared_data("shared_vr_truth_files_read_with_their_flags") else {
-        return;
-    };
+    let data = common::shared_data();
     let truth = data.join("fixations-vr/truth/bunny_objorder_time_bin.txt.gz");
     let GroundTruth::VertexMap(m) = load_ground_truth(&truth, 20_000, 0.05).unwrap() else {
         panic!()
