@@ -25,6 +25,7 @@ fn params() -> IngestParams {
         format: None,
         detector: None,
         eye: EyePolicy::Best,
+        validity: meshgaze::gaze::validity::ValidityRule::Auto,
         subject: None,
         detector_params: DetectorParams::default(),
         filter: FilterRules {
@@ -281,6 +282,7 @@ fn recording_with_messages(messages: &[(i64, &str)]) -> Recording {
             y,
             pupil: Some(3.5),
             valid,
+            flag_lost: false,
         };
         samples.push(common::both_eyes_sample(t, e));
         t += 4000;

@@ -297,6 +297,7 @@ mod fixation_tests {
                     y,
                     pupil: Some(4.0),
                     valid: true,
+                    flag_lost: false,
                 };
                 samples.push(common::both_eyes_sample(t, e));
                 t += 4000;
@@ -530,7 +531,13 @@ mod writer_round_trip {
                 proptest::option::of(2.0f64..8.0),
                 any::<bool>(),
             )
-                .prop_map(|(x, y, pupil, valid)| EyeSample { x, y, pupil, valid }),
+                .prop_map(|(x, y, pupil, valid)| EyeSample {
+                    x,
+                    y,
+                    pupil,
+                    valid,
+                    flag_lost: !valid,
+                }),
         )
     }
 
@@ -546,7 +553,7 @@ mod writer_round_trip {
             let samples: Vec<Sample> = eyes.iter().map(|(l, r, trial)| {
                 t += 4000;
                 // A missing eye reads back as an invalid (0, 0) eye: write what a tracker writes.
-                let fill = |e: &Option<EyeSample>| Some(e.unwrap_or(EyeSample { x: 0.0, y: 0.0, pupil: None, valid: false }));
+                let fill = |e: &Option<EyeSample>| Some(e.unwrap_or(EyeSample { x: 0.0, y: 0.0, pupil: None, valid: false, flag_lost: true }));
                 Sample { time_us: t, trial: *trial, left: fill(l), right: fill(r), binocular: None, binocular_event: None, left_event: None, right_event: None, stimulus: None }
             }).collect();
             let messages: Vec<Message> = texts.iter().enumerate().map(|(k, text)| Message { time_us: 1_000_000 + 10_000 * k as i64 + 1, trial: 1, text: text.clone() }).collect();

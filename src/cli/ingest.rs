@@ -12,6 +12,7 @@ use meshgaze::gaze::ingest::{
     write_ingest_tables, write_samples_rows, IngestParams, IngestedFile, SAMPLES_CSV_HEADER,
 };
 use meshgaze::gaze::stimulus_messages::{classify_messages, message_census, stimulus_segments};
+use meshgaze::gaze::validity::ValidityRule;
 use meshgaze::gaze::{read_smi, SmiFormat};
 use meshgaze::protocol::Protocol;
 use meshgaze::provenance::InputFile;
@@ -19,9 +20,11 @@ use meshgaze::provenance::InputFile;
 /// Read SMI eye-tracker exports, find fixations, apply the protocol's filter, report quality.
 ///
 /// Reads IDF Converter sample text (format A, `## [iView]`), BeGaze sample exports (A'),
-/// IDF Event Detector / BeGaze event text (C1, `Table Header for …`; TAB, comma or the
-/// space-damaged variant), BeGaze Raw Data (C2) and BeGaze Event Statistics (B; separator and
-/// decimal comma sniffed), detected from content or set with --format.
+/// iView X 2.x sample files (A2, `#FileVersion: 2`, one eye, ms times), IDF Event Detector /
+/// BeGaze event text (C1, `Table Header for …`; TAB, comma or the space-damaged variant),
+/// BeGaze Raw Data (C2), BeGaze Event Statistics (B; separator and decimal comma sniffed) and
+/// the older BeGaze fixation table (B-fix, `Fixation Start [ms]`, several subjects a file),
+/// detected from content or set with --format.
 /// Every line of every file is accounted for: rows that cannot be used are counted by reason
 /// with the line and column of the first one.
 ///
@@ -35,6 +38,11 @@ use meshgaze::provenance::InputFile;
 /// next onset, at a --stimulus-end-pattern message, or after the protocol's video length
 /// (48 s for hu2020); fixations after that, or before the first onset, are `invalid` with
 /// the reason. See what a file's messages are with --list-messages.
+///
+/// The eye: by default the one the file has (with both, the one with more valid samples; for
+/// event files the left stream, else the eye present). A sample is lost where its validity
+/// flag is 0 or its point of regard is (0, 0); a flag that is 0 in every row while the gaze
+/// moves is set aside and said so (--validity). A file that yields no fixation says why.
 ///
 /// Per subject and stimulus the protocol's filter drops the first and last fixations and
 /// keeps the longest; every fixation keeps its fate. Two files giving one subject fixations
@@ -70,9 +78,15 @@ pub struct IngestArgs {
     /// Where fixations come from (default: events for event files, i-dt for sample files).
     #[arg(long, value_enum)]
     pub detector: Option<Detector>,
-    /// Which eye's gaze to use.
+    /// Which eye's gaze to use (best: the eye the file has, or of two the one with more
+    /// valid samples). A named eye the file lacks is an error that names the eyes it has.
     #[arg(long, value_enum, default_value_t = EyePolicy::Best)]
     pub eye: EyePolicy,
+    /// Which samples are lost: auto (validity flag or POR (0, 0), but a flag that is 0 in
+    /// every row while the POR moves is set aside, said in the summary), strict (flag or POR,
+    /// always), por (POR (0, 0) only).
+    #[arg(long, value_enum, default_value_t = ValidityRule::Auto)]
+    pub validity: ValidityRule,
     /// Subject id (default: the header's Subject, else the file name).
     #[arg(long)]
     pub subject: Option<String>,
@@ -102,6 +116,7 @@ fn params(args: &IngestArgs, protocol: &Protocol) -> Result<IngestParams> {
     params.format = args.format;
     params.detector = args.detector;
     params.eye = args.eye;
+    params.validity = args.validity;
     params.subject = args.subject.clone();
     let d = &mut params.detector_params;
     d.max_dispersion_px = args
@@ -150,6 +165,22 @@ fn list_messages(args: &IngestArgs, params: &IngestParams) -> Result<()> {
                     .map_or("open".to_string(), |e| format!("at {e} µs")),
                 s.ended_by
             );
+        }
+        // Formats B and B-fix name each event's stimulus in a column instead of a message.
+        let mut named: BTreeMap<&str, usize> = BTreeMap::new();
+        for e in &rec.events {
+            if let Some(s) = e.stimulus.as_deref() {
+                *named.entry(s).or_insert(0) += 1;
+            }
+        }
+        if !named.is_empty() {
+            println!(
+                "  {} stimuli named by the file's `Stimulus` column (events per stimulus):",
+                named.len()
+            );
+            for (s, n) in named {
+                println!("    {n:>7}  {s}");
+            }
         }
     }
     Ok(())
@@ -238,7 +269,7 @@ pub fn run(args: IngestArgs) -> Result<()> {
     }
     let all_fix: Vec<&Fixation> = files.iter().flat_map(|f| f.fixations.iter()).collect();
     if all_fix.is_empty() && !args.quiet {
-        eprintln!("warning: no fixations found");
+        eprintln!("warning: no fixations found in any file (each file's reason is above)");
     }
     write_ingest_tables(&out, &files).map_err(anyhow::Error::msg)?;
     let (p, m, q) = (

@@ -85,12 +85,14 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
                     y,
                     pupil,
                     valid: !(x == 0.0 && y == 0.0),
+                    flag_lost: false,
                 },
                 _ => EyeSample {
                     x: 0.0,
                     y: 0.0,
                     pupil,
                     valid: false,
+                    flag_lost: false,
                 },
             }))
         };

@@ -126,6 +126,7 @@ fn gaze(s: &Sample, policy: EyePolicy) -> Option<EyeSample> {
                     (a, b) => a.or(b),
                 },
                 valid: true,
+                flag_lost: false,
             }),
             (l, r) => l.or(r),
         },
@@ -369,6 +370,50 @@ fn stimulus_of(
     }
 }
 
+/// The eye stream whose fixation events are used. A chosen eye the file has is used; an
+/// export with only a binocular stream (BeGaze) uses it whatever the policy; without a choice
+/// (`Best`, `Average`) the left eye when present, else the eye the file has (monocular
+/// right-eye exports); a chosen eye the file lacks is an error naming the eyes it has.
+fn event_eye(rec: &Recording, policy: EyePolicy) -> Result<Eye, String> {
+    let count = |eye: Eye| {
+        rec.events
+            .iter()
+            .filter(|e| e.kind == EventKind::Fixation && e.eye == eye)
+            .count()
+    };
+    let preferred = match policy {
+        EyePolicy::Right => Eye::Right,
+        _ => Eye::Left,
+    };
+    if count(preferred) > 0 {
+        return Ok(preferred);
+    }
+    if count(Eye::Binocular) > 0 {
+        return Ok(Eye::Binocular);
+    }
+    let present: Vec<(Eye, usize)> = [Eye::Left, Eye::Right]
+        .into_iter()
+        .map(|e| (e, count(e)))
+        .filter(|(_, n)| *n > 0)
+        .collect();
+    match (policy, present.first()) {
+        (EyePolicy::Left | EyePolicy::Right, Some(_)) => Err(format!(
+            "{}: no {} fixation events; the file has {} (use --eye {}, or leave --eye out to use the eye the file has)",
+            rec.file,
+            eye_name(preferred),
+            present
+                .iter()
+                .map(|(e, n)| format!("{n} {} fixation events", eye_name(*e)))
+                .collect::<Vec<_>>()
+                .join(" and "),
+            eye_name(present[0].0)
+        )),
+        (_, Some(&(eye, _))) => Ok(eye),
+        // No fixation event at all: none is found, and ingest says why.
+        (_, None) => Ok(preferred),
+    }
+}
+
 /// All fixations of a recording, before filtering (fate Kept or Invalid).
 pub fn fixations(
     rec: &Recording,
@@ -388,21 +433,7 @@ pub fn fixations(
                     rec.file
                 ));
             }
-            let preferred = match policy {
-                EyePolicy::Right => Eye::Right,
-                _ => Eye::Left,
-            };
-            // Exports with only a binocular stream (BeGaze) use it whatever the policy.
-            let has = |eye: Eye| {
-                rec.events
-                    .iter()
-                    .any(|e| e.kind == EventKind::Fixation && e.eye == eye)
-            };
-            let want = if has(preferred) || !has(Eye::Binocular) {
-                preferred
-            } else {
-                Eye::Binocular
-            };
+            let want = event_eye(rec, policy)?;
             let raw = rec
                 .events
                 .iter()

@@ -36,7 +36,10 @@ pub(crate) fn parse_header_line(line: &str, header: &mut Header) {
     let anonymised = matches!(value.as_str(), "" | "NA" | "###");
     match key.as_str() {
         "Sample Rate" => header.sample_rate_hz = nums(1).map(|v| v[0]),
-        "Calibration Area" => header.calibration_area_px = nums(2).map(|v| [v[0], v[1]]),
+        // iView X 2.x says "Size Of Calibration Area".
+        "Calibration Area" | "Size Of Calibration Area" => {
+            header.calibration_area_px = nums(2).map(|v| [v[0], v[1]])
+        }
         "Stimulus Dimension [mm]" => header.stimulus_dimension_mm = nums(2).map(|v| [v[0], v[1]]),
         "Head Distance [mm]" => header.head_distance_mm = nums(1).map(|v| v[0]),
         "Subject" if !anonymised => header.subject = Some(value.clone()),
@@ -283,8 +286,15 @@ fn parse_rows(chunk: &[(usize, &str)], layout: &Layout) -> (Vec<Sample>, Vec<Mes
                         None => None,
                     };
                     let (x, y) = (x.unwrap_or(0.0), y.unwrap_or(0.0));
-                    let valid = validity != Some(0.0) && !(x == 0.0 && y == 0.0);
-                    eyes[k] = Some(EyeSample { x, y, pupil, valid });
+                    let flag_lost = validity == Some(0.0);
+                    let valid = !flag_lost && !(x == 0.0 && y == 0.0);
+                    eyes[k] = Some(EyeSample {
+                        x,
+                        y,
+                        pupil,
+                        valid,
+                        flag_lost,
+                    });
                     events[k] = c.event.map(|i| f[i].1.trim().to_string());
                 }
                 let [left_eye, right_eye] = eyes;

@@ -17,6 +17,7 @@ use super::recording::{EyeSample, Header, Recording, RowAccount, SmiFormat};
 use super::stimulus_messages::{
     classify_messages, ClassifiedMessage, Segmentation, StimulusPattern,
 };
+use super::validity::{apply_validity_rule, flag_counts, ValidityRule};
 use crate::protocol::Protocol;
 use crate::provenance::{InputFile, Provenance};
 
@@ -36,6 +37,8 @@ pub struct IngestParams {
     /// None: the exporter's events when the file has events and no samples, else I-DT.
     pub detector: Option<Detector>,
     pub eye: EyePolicy,
+    /// Which samples count as tracked (the validity flag, the point of regard).
+    pub validity: ValidityRule,
     /// Overrides the subject the file names.
     pub subject: Option<String>,
     pub detector_params: DetectorParams,
@@ -63,6 +66,7 @@ impl IngestParams {
             format: None,
             detector: None,
             eye: EyePolicy::Best,
+            validity: ValidityRule::Auto,
             subject: None,
             detector_params: DetectorParams {
                 max_dispersion_px: rules.idt_max_dispersion_px,
@@ -127,9 +131,133 @@ fn check_gaze_present(rec: &Recording, path: &Path) -> Result<(), String> {
     Ok(())
 }
 
+/// Valid samples of the left eye, the right eye and a binocular stream.
+fn valid_sample_counts(rec: &Recording) -> [usize; 3] {
+    let valid = |e: &Option<EyeSample>| e.is_some_and(|e| e.valid);
+    let mut n = [0; 3];
+    for s in &rec.samples {
+        n[0] += valid(&s.left) as usize;
+        n[1] += valid(&s.right) as usize;
+        n[2] += valid(&s.binocular) as usize;
+    }
+    n
+}
+
+/// Fails when `--eye left|right` names an eye with no valid sample, naming the eyes that have.
+fn check_chosen_eye_has_samples(
+    rec: &Recording,
+    eye: EyePolicy,
+    path: &Path,
+) -> Result<(), String> {
+    let [l, r, b] = valid_sample_counts(rec);
+    let (chosen, n) = match eye {
+        EyePolicy::Left => ("left", l),
+        EyePolicy::Right => ("right", r),
+        _ => return Ok(()),
+    };
+    if n > 0 {
+        return Ok(());
+    }
+    let present: Vec<String> = [("left", l), ("right", r), ("binocular", b)]
+        .iter()
+        .filter(|(_, n)| *n > 0)
+        .map(|(e, n)| format!("{n} valid {e}-eye samples"))
+        .collect();
+    let has = if present.is_empty() {
+        "no valid sample of any eye".to_string()
+    } else {
+        present.join(" and ")
+    };
+    Err(format!(
+        "{}: --eye {chosen}: no valid {chosen}-eye sample; the file has {has} (leave --eye out to use the eye the file has)",
+        path.display()
+    ))
+}
+
+/// Why a file gave no kept fixation, when it gave none: the first cause in pipeline order
+/// (no gaze, every sample lost and by which rule, no fixation events, none detected, every
+/// fixation outside a stimulus or off screen, the protocol's filter). None when some are kept.
+pub fn why_no_fixations(
+    rec: &Recording,
+    detector: Detector,
+    params: &IngestParams,
+    fixations: &[Fixation],
+) -> Option<String> {
+    if fixations.iter().any(|f| f.fate == Fate::Kept) {
+        return None;
+    }
+    if detector == Detector::Events {
+        let fixation_events = rec
+            .events
+            .iter()
+            .filter(|e| e.kind == super::recording::EventKind::Fixation)
+            .count();
+        if fixation_events == 0 {
+            return Some(format!(
+                "the file's {} events hold no fixation (only saccades and blinks)",
+                rec.events.len()
+            ));
+        }
+    } else {
+        let [l, r, b] = valid_sample_counts(rec);
+        if l + r + b == 0 {
+            let [fl, fr] = flag_counts(rec);
+            let flagged = fl.flagged_lost_with_gaze + fr.flagged_lost_with_gaze;
+            let rule = match params.validity {
+                ValidityRule::Strict | ValidityRule::Auto if flagged > 0 => format!(
+                    "the validity flag is 0 in every row ({flagged} of them with a gaze position; --validity por uses the position instead)"
+                ),
+                _ => "the point of regard is (0, 0) in every row, SMI's loss value".to_string(),
+            };
+            return Some(format!(
+                "every one of the {} samples is lost: {rule}",
+                rec.samples.len()
+            ));
+        }
+        if fixations.is_empty() {
+            let p = &params.detector_params;
+            return Some(format!(
+                "{:?} found no fixation in {} valid samples (dispersion at most {} px for at least {} ms)",
+                detector,
+                l.max(r).max(b),
+                p.max_dispersion_px,
+                p.min_duration_ms
+            ));
+        }
+    }
+    if fixations.is_empty() {
+        return Some("no fixation of the chosen eye".to_string());
+    }
+    let mut invalid: BTreeMap<&str, usize> = BTreeMap::new();
+    for f in fixations {
+        if let Some(r) = f.invalid_reason {
+            *invalid.entry(r).or_insert(0) += 1;
+        }
+    }
+    let total_invalid: usize = invalid.values().sum();
+    if total_invalid == fixations.len() {
+        let list: Vec<String> = invalid.iter().map(|(r, n)| format!("{n} {r}")).collect();
+        return Some(format!(
+            "all {} fixations are unusable: {}",
+            fixations.len(),
+            list.join(", ")
+        ));
+    }
+    let f = params.filter;
+    Some(format!(
+        "the protocol's filter kept none of the {} usable fixations (it drops each subject's first {} and last {} per stimulus, then keeps the {} longest)",
+        fixations.len() - total_invalid,
+        f.drop_first,
+        f.drop_last,
+        f.keep_longest
+    ))
+}
+
 /// Reads one export, finds its fixations, applies the protocol's filter and measures quality.
 pub fn ingest_file(path: &Path, params: &IngestParams) -> Result<IngestedFile, String> {
-    let rec = read_smi(path, params.format).map_err(|e| e.to_string())?;
+    let mut rec = read_smi(path, params.format).map_err(|e| e.to_string())?;
+    let validity_notes = apply_validity_rule(&mut rec, params.validity);
+    rec.notes.extend(validity_notes);
     let subject = params
         .subject
         .clone()
@@ -144,6 +272,7 @@ pub fn ingest_file(path: &Path, params: &IngestParams) -> Result<IngestedFile, S
     let mut warnings = Vec::new();
     if detector != Detector::Events {
         check_gaze_present(&rec, path)?;
+        check_chosen_eye_has_samples(&rec, params.eye, path)?;
         if let (Some(rate), Detector::IVt) = (rec.header.sample_rate_hz, detector) {
             if rate < 200.0 {
                 warnings.push(format!(
@@ -192,6 +321,9 @@ pub fn ingest_file(path: &Path, params: &IngestParams) -> Result<IngestedFile, S
     );
     let quality = quality(&rec, &subject, &fx, params.eye);
     let messages = classify_messages(&rec, &params.segmentation);
+    if let Some(why) = why_no_fixations(&rec, detector, params, &fx) {
+        warnings.push(format!("{}: no fixations: {why}", path.display()));
+    }
     Ok(IngestedFile {
         path: path.to_path_buf(),
         recording: rec,
@@ -361,6 +493,8 @@ struct IngestFileEntry {
     messages: BTreeMap<&'static str, usize>,
     stimuli: Vec<String>,
     fixations: usize,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    warnings: Vec<String>,
 }
 
 #[derive(Serialize)]
@@ -371,6 +505,7 @@ struct IngestSidecar<'a> {
     drop_last: usize,
     keep_longest: usize,
     eye_policy: EyePolicy,
+    validity: ValidityRule,
     detector_params: &'a DetectorParams,
     stimulus_pattern: Option<&'a str>,
     stimulus_end_pattern: Option<&'a str>,
@@ -409,6 +544,7 @@ pub fn write_ingest_json(
         drop_last: rules.drop_last,
         keep_longest: rules.keep_longest,
         eye_policy: params.eye,
+        validity: params.validity,
         detector_params: &params.detector_params,
         stimulus_pattern: params
             .segmentation
@@ -435,6 +571,7 @@ pub fn write_ingest_json(
                 messages: message_kind_counts(&f.messages),
                 stimuli: stimuli_of(f),
                 fixations: f.fixations.len(),
+                warnings: f.warnings.clone(),
             })
             .collect(),
     };

@@ -1,6 +1,8 @@
-//! SMI RED / iView X / BeGaze text exports: detection and readers (formats A, A', B, C1, C2). Nothing is dropped
+//! SMI RED / iView X / BeGaze text exports: detection and readers (formats A, A', A2, B,
+//! B-fix, C1, C2). Nothing is dropped
 //! silently: every line of a file is a header line, a blank line, a sample, a message, an
 //! event, or counted as unusable with its reason and the position of the first such line.
+pub mod begaze_fixations;
 pub mod begaze_raw;
 pub mod event_statistics;
 pub mod event_tables;
@@ -8,10 +10,12 @@ pub mod fixation_table;
 pub mod fixations;
 pub mod idf_samples;
 pub mod ingest;
+pub mod iview_legacy;
 pub mod quality;
 pub mod recording;
 pub mod stimulus_messages;
 pub mod text;
+pub mod validity;
 pub mod writers;
 
 use std::path::Path;
@@ -27,6 +31,9 @@ pub fn detect_format(bytes: &[u8]) -> Result<SmiFormat, String> {
     let head = String::from_utf8_lossy(&bytes[..bytes.len().min(65536)]);
     let head = head.trim_start_matches('\u{feff}');
     let first = head.lines().next().unwrap_or("").trim();
+    if iview_legacy::looks_like(head) {
+        return Ok(SmiFormat::IviewLegacy);
+    }
     if head.contains("Table Header for") {
         return Ok(SmiFormat::EventTables);
     }
@@ -45,7 +52,13 @@ pub fn detect_format(bytes: &[u8]) -> Result<SmiFormat, String> {
     if first.contains("Event Start Trial Time [ms]") {
         return Ok(SmiFormat::EventStatistics);
     }
-    Err("not a recognized SMI export: expected a `## [iView]`/`## [BeGaze]` sample file or a `Table Header for …` event file".into())
+    if begaze_fixations::SIGNATURE
+        .iter()
+        .all(|c| first.contains(c))
+    {
+        return Ok(SmiFormat::BeGazeFixations);
+    }
+    Err("not a recognized SMI export: expected a `## [iView]`/`## [BeGaze]` sample file (A, A'), an iView X 2.x `#FileVersion: 2` sample file (A2), a `Table Header for …` event file (C1), a BeGaze Raw Data table (`RecordingTime [ms]`, C2), an Event Statistics table (`Event Start Trial Time [ms]`, B) or a BeGaze fixation table (`Fixation Start [ms]`, B-fix)".into())
 }
 
 /// Reads bytes as `format` (detected when None); `path` is for messages.
@@ -66,6 +79,8 @@ pub fn parse_smi(
         SmiFormat::EventTables => event_tables::read(bytes, path)?,
         SmiFormat::BeGazeRaw => begaze_raw::read(bytes, path)?,
         SmiFormat::EventStatistics => event_statistics::read(bytes, path)?,
+        SmiFormat::BeGazeFixations => begaze_fixations::read(bytes, path)?,
+        SmiFormat::IviewLegacy => iview_legacy::read(bytes, path)?,
     };
     if format == SmiFormat::BeGazeSamples {
         r.format = SmiFormat::BeGazeSamples;

@@ -28,6 +28,16 @@ pub enum SmiFormat {
     #[cfg_attr(feature = "cli", value(name = "b"))]
     #[serde(rename = "B")]
     EventStatistics,
+    /// Older BeGaze fixation export: one row per fixation (`Fixation Start [ms]`, `Position
+    /// X`, `Eye`), no `##` header, several subjects and trials per file.
+    #[cfg_attr(feature = "cli", value(name = "b-fix"))]
+    #[serde(rename = "B-fix")]
+    BeGazeFixations,
+    /// iView X 2.x sample file (`#FileVersion:	2`): `#` header, `#Time	Set	…	ScreenH	ScreenV`
+    /// columns, integer ms times, one eye.
+    #[cfg_attr(feature = "cli", value(name = "a2"))]
+    #[serde(rename = "A2")]
+    IviewLegacy,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
@@ -48,8 +58,12 @@ pub struct EyeSample {
     /// Pupil: mapped diameter in mm when exported, else the camera diameter in px.
     pub pupil: Option<f64>,
     /// False when the validity flag is 0 or the point of regard is exactly (0, 0), SMI's
-    /// tracking-loss value.
+    /// tracking-loss value (see [`crate::gaze::validity`] for when the flag is set aside).
     pub valid: bool,
+    /// The exporter's own validity flag for this eye said "lost" (0). Kept apart from
+    /// `valid` so that a flag that contradicts the gaze in every row can be set aside.
+    #[serde(skip)]
+    pub flag_lost: bool,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize)]

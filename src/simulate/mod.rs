@@ -359,6 +359,7 @@ impl Recording {
                     y: ((y + jy) * 100.0).round() / 100.0,
                     pupil: Some((p * 1000.0).round() / 1000.0),
                     valid: true,
+                    flag_lost: false,
                 }
             }
             None => EyeSample {
@@ -366,6 +367,7 @@ impl Recording {
                 y: 0.0,
                 pupil: Some(0.0),
                 valid: false,
+                flag_lost: true,
             },
         };
         let left = eye(&mut self.rng);
