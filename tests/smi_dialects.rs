@@ -364,3 +364,91 @@ fn the_command_line_prints_the_reason_and_lists_the_stimulus_column() {
         "{text}"
     );
 }
+
+mod properties {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Mutates `b` at `edits` places chosen by `seed` with bytes that break tables.
+    fn mutate(mut b: Vec<u8>, seed: u64, edits: usize) -> Vec<u8> {
+        let mut s = seed | 1;
+        let mut next = || {
+            s ^= s << 13;
+            s ^= s >> 7;
+            s ^= s << 17;
+            s
+        };
+        for _ in 0..edits {
+            let i = (next() as usize) % b.len();
+            b[i] = match next() % 6 {
+                0 => b'\t',
+                1 => b'\n',
+                2 => b'-',
+                3 => b'#',
+                4 => b'\r',
+                _ => next() as u8,
+            };
+        }
+        b
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+
+        #[test]
+        fn mutated_fixation_tables_never_panic_and_account_for_every_line(seed in any::<u64>(), edits in 1usize..30) {
+            let b = mutate(begaze_fixation_table().into_bytes(), seed, edits);
+            for format in [None, Some(SmiFormat::BeGazeFixations)] {
+                if let Ok(r) = parse_smi(&b, "mutated", format) {
+                    prop_assert_eq!(r.rows.accounted(), r.rows.lines);
+                    prop_assert!(r.events.iter().all(|e| e.end_us >= e.start_us));
+                }
+            }
+        }
+
+        #[test]
+        fn mutated_iview2_files_never_panic_and_account_for_every_line(seed in any::<u64>(), edits in 1usize..30) {
+            let b = mutate(iview2_samples(6).into_bytes(), seed, edits);
+            for format in [None, Some(SmiFormat::IviewLegacy)] {
+                if let Ok(r) = parse_smi(&b, "mutated", format) {
+                    prop_assert_eq!(r.rows.accounted(), r.rows.lines);
+                    prop_assert_eq!(r.samples.len(), r.rows.samples);
+                }
+            }
+        }
+
+        #[test]
+        fn arbitrary_bytes_never_panic_in_the_new_readers(bytes in proptest::collection::vec(any::<u8>(), 0..600)) {
+            for f in [SmiFormat::BeGazeFixations, SmiFormat::IviewLegacy] {
+                if let Ok(r) = parse_smi(&bytes, "fuzz", Some(f)) {
+                    prop_assert_eq!(r.rows.accounted(), r.rows.lines);
+                }
+            }
+        }
+
+        /// The validity rule only ever changes which samples are valid, never drops one, and
+        /// `auto` changes nothing unless the flag is 0 in every row with gaze somewhere.
+        #[test]
+        fn the_validity_rule_keeps_every_sample(flags in proptest::collection::vec(any::<bool>(), 1..80)) {
+            let mut text = String::from("## [iView]\nTime\tType\tTrial\tL POR X [px]\tL POR Y [px]\tL Validity\n");
+            for (k, lost) in flags.iter().enumerate() {
+                text += &format!("{}\tSMP\t1\t{}.5\t20.0\t{}\n", 1000 * k, 100 + k, if *lost { 0 } else { 1 });
+            }
+            let r = parse_smi(text.as_bytes(), "v.txt", None).unwrap();
+            for rule in [ValidityRule::Auto, ValidityRule::Strict, ValidityRule::Por] {
+                let mut x = r.clone();
+                let notes = meshgaze::gaze::validity::apply_validity_rule(&mut x, rule);
+                prop_assert_eq!(x.samples.len(), r.samples.len());
+                let valid = x.samples.iter().filter(|s| s.left.unwrap().valid).count();
+                let expected = match rule {
+                    ValidityRule::Strict => flags.iter().filter(|l| !**l).count(),
+                    ValidityRule::Por => flags.len(),
+                    ValidityRule::Auto if flags.iter().all(|l| *l) => flags.len(),
+                    ValidityRule::Auto => flags.iter().filter(|l| !**l).count(),
+                };
+                prop_assert_eq!(valid, expected);
+                prop_assert_eq!(notes.is_empty(), valid == flags.iter().filter(|l| !**l).count());
+            }
+        }
+    }
+}
