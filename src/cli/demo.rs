@@ -1,32 +1,11 @@
-use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::path::PathBuf;
 
-use anyhow::{Context, Result};
+use anyhow::Result;
 use clap::Args;
 
-use meshgaze::mesh::{parse_mesh_bytes, LoadReport, Mesh, MeshFormat};
-use meshgaze::protocol::Protocol;
-use meshgaze::provenance::InputFile;
-use meshgaze::saliency::PAPER_METHODS;
-use meshgaze::scoring::{score_mesh, MeshScore, ScoreParams};
-use meshgaze::stimulus::load::{load_stimulus, LoadedStimulus};
-use meshgaze::stimulus::{render_stimulus, FrameImages, StimulusOptions};
+use meshgaze::study::demo::{run_demo, DemoInputs};
 
 use super::progress_bar::Bars;
-use meshgaze::file_bytes::create_output_dir;
-use meshgaze::gaze::ingest::{
-    check_one_source_per_subject, ingest_file, write_ingest_json, write_ingest_tables, IngestParams,
-};
-use meshgaze::projection::project_file::{project_files, write_projection, ProjectOptions};
-use meshgaze::report::demo_report::{write_report, ReportInputs, StepTiming};
-use meshgaze::report::score_plots::write_score_plots;
-use meshgaze::saliency::map_file::{compute_and_write_map, MapOutputs};
-use meshgaze::saliency::SmsParams;
-use meshgaze::scoring::dataset::{write_score_rows, SCORE_CSV_HEADER};
-use meshgaze::simulate::{
-    extremity_map, simulate_observers, write_simulation, ObserverParams, TargetModel,
-};
-use meshgaze::truth::{build_truth, read_projections, write_truth, TruthParams, TruthResult};
 
 /// The Stanford bunny (8,171 vertices) compiled into the binary, so the demo needs no files.
 const BUNNY: &[u8] = include_bytes!("../../stimuli/meshes/bun_zipper_res2.ply");
@@ -60,279 +39,41 @@ pub struct DemoArgs {
     pub quiet: bool,
 }
 
-fn s(p: &Path) -> String {
-    p.display().to_string()
-}
-
 pub fn run(args: DemoArgs) -> Result<()> {
-    let t_all = Instant::now();
-    let out = &args.output;
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let bars = Bars::new(args.quiet);
     let say = |m: &str| {
         if !args.quiet {
             eprintln!("meshgaze demo: {m}");
         }
     };
-    let mut steps: Vec<StepTiming> = Vec::new();
-    let mut step = |name: &str, t: Instant, outputs: &str| {
-        steps.push(StepTiming {
-            name: name.to_string(),
-            seconds: t.elapsed().as_secs_f64(),
-            outputs: outputs.to_string(),
-        })
-    };
-    let mesh_path = out.join("bunny.ply");
-    std::fs::write(&mesh_path, BUNNY).with_context(|| format!("cannot write {}", s(&mesh_path)))?;
-    let protocol_path = out.join("hu2020.toml");
-    std::fs::write(&protocol_path, PROTOCOL)
-        .with_context(|| format!("cannot write {}", s(&protocol_path)))?;
-    let (mesh, load) = parse_mesh_bytes(BUNNY, &mesh_path, MeshFormat::Ply)?;
-    let protocol = Protocol::from_toml(PROTOCOL, "hu2020.toml")?;
-    let bars = Bars::new(args.quiet);
-
-    // 1. Stimulus.
-    say("1/7 rendering the 48 s stimulus video (12 viewpoints, 3 s holds, 1 s moves)");
-    let t = Instant::now();
-    let stim_dir = out.join("stimulus");
-    render_stimulus(
-        &mesh_path,
-        &mesh,
-        &protocol,
-        PROTOCOL,
-        &s(&protocol_path),
-        &stim_dir,
-        &StimulusOptions {
-            frames: FrameImages::Keyframes,
-            id_buffer: false,
-            verify: false,
+    let done = run_demo(
+        &DemoInputs {
+            mesh_bytes: BUNNY,
+            protocol_toml: PROTOCOL,
+            output: &args.output,
+            subjects: args.subjects,
+            seed: args.seed,
         },
         &bars,
-    )
-    .map_err(anyhow::Error::msg)?;
-    step(
-        "stimulus",
-        t,
-        "stimulus/stimulus.mp4, timeline.csv, manifest.json, frames/",
-    );
-
-    // 2. Virtual observers.
-    say(&format!(
-        "2/7 simulating {} virtual observers (SMI RED250 exports)",
-        args.subjects
-    ));
-    let t = Instant::now();
-    let rec_dir = out.join("recordings");
-    let stim = load_stimulus(&stim_dir, None).map_err(anyhow::Error::msg)?;
-    simulate_step(&stim, &rec_dir, args.subjects, args.seed)?;
-    step(
-        "simulate",
-        t,
-        "recordings/sNN_samples.txt (A), sNN_events.txt (C1), targets.csv",
-    );
-
-    // 3. Ingest.
-    say("3/7 ingesting the recordings: I-DT fixations, drop 2 first / 2 last, keep 15 longest");
-    let t = Instant::now();
-    let ing_dir = out.join("ingest");
-    ingest_step(&protocol, &rec_dir, &ing_dir, args.subjects)?;
-    step(
-        "ingest",
-        t,
-        "ingest/fixations.csv, quality.csv, ingest.json",
-    );
-
-    // 4. Projection.
-    say("4/7 projecting fixations onto the mesh (BVH, watertight rays, nearest vertex)");
-    let t = Instant::now();
-    let proj_dir = out.join("projection");
-    let options = ProjectOptions {
-        targets: Some(rec_dir.join("targets.csv")),
-        self_check: true,
-        ..ProjectOptions::default()
-    };
-    let run = project_files(
-        &stim,
-        &[ing_dir.join("fixations.csv")],
-        &options,
-        &meshgaze::progress::Silent,
-    )?;
-    write_projection(&proj_dir, &run)?;
-    step("project", t, "projection/projected.csv, project.json");
-    let pj: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(proj_dir.join("project.json"))?)?;
-    say(&projection_summary(&pj));
-
-    // 5. Ground truth.
-    say("5/7 building the ground truth and the split-half human ceiling");
-    let t = Instant::now();
-    let truth_dir = out.join("truth");
-    let projections = read_projections(&stim, &[proj_dir.join("projected.csv")])?;
-    let truth = build_truth(&stim, projections, &TruthParams::default(), &bars)?;
-    write_truth(&truth_dir, &stim, &truth)?;
-    step(
-        "truth",
-        t,
-        "truth/truth.csv, density.csv, truth.ply, human.csv, truth.json",
-    );
-
-    // 6. Saliency.
-    say("6/7 computing saliency: SMS (the paper's method) and its six competitors MC, MS, SI, SRI, MR, GR");
-    let t = Instant::now();
-    let sal_dir = out.join("saliency");
-    let (maps, seconds, ginis) = saliency_step(&mesh_path, &mesh, &load, &sal_dir)?;
-    step(
-        "saliency",
-        t,
-        "saliency/bunny_{sms,mc,ms,si,sri,mr,gr}.csv, .ply, .json",
-    );
-
-    // 7. Scores and report.
-    say("7/7 scoring against the ground truth and writing report.html");
-    let t = Instant::now();
-    let seen = meshgaze::stimulus::hold_views::hold_view_exposure(&mesh, &protocol)
-        .map_err(anyhow::Error::msg)?
-        .seen();
-    let (score, plots) = score_step(&mesh, &seen, &truth, &maps, &out.join("score"), &bars)?;
-    step(
-        "score",
-        t,
-        "score/score.csv, score.json, AUC and Lorenz plots",
-    );
-    let report = out.join("report.html");
-    write_report(
-        &report,
-        &ReportInputs {
-            out_dir: out,
-            stim: &stim,
-            truth: &truth,
-            maps: &maps,
-            method_seconds: &seconds,
-            score: &score,
-            plots: &plots,
-            steps: &steps,
-            total_seconds: t_all.elapsed().as_secs_f64(),
-        },
+        &say,
     )?;
     if !args.quiet {
-        print_scores(&score, &ginis, &truth);
+        print_scores(&done.score, &done.ginis, &done.truth);
         eprintln!(
             "meshgaze demo: done in {:.1} s. Open {} in a browser.",
-            t_all.elapsed().as_secs_f64(),
-            report.display()
+            done.seconds,
+            done.report.display()
         );
     }
-    println!("{}", report.display());
+    println!("{}", done.report.display());
     Ok(())
 }
 
-/// Step 2: virtual observers drawn by the extremity model, written as SMI exports.
-fn simulate_step(stim: &LoadedStimulus, rec_dir: &Path, subjects: usize, seed: u64) -> Result<()> {
-    let params = ObserverParams {
-        subjects,
-        seed,
-        ..ObserverParams::default()
-    };
-    let stimulus_name = format!("{}.mp4", stim.mesh_stem());
-    let simulated = simulate_observers(
-        &stim.mesh,
-        &stim.plan,
-        &stim.protocol,
-        &TargetModel::Saliency(extremity_map(&stim.mesh)),
-        &stimulus_name,
-        &params,
-    )
-    .map_err(anyhow::Error::msg)?;
-    write_simulation(
-        rec_dir,
-        &simulated,
-        vec![
-            InputFile::hash(&stim.manifest_path)?,
-            InputFile::hash(&stim.mesh_path)?,
-        ],
-        &stimulus_name,
-        "extremity (distance from the centroid)",
-        &params,
-    )
-    .map_err(anyhow::Error::msg)
-}
-
-/// Step 3: the subjects' format-A recordings through ingest with the protocol's rules.
-fn ingest_step(protocol: &Protocol, rec_dir: &Path, ing_dir: &Path, subjects: usize) -> Result<()> {
-    let params = IngestParams::from_protocol(protocol, None).map_err(anyhow::Error::msg)?;
-    let mut files = Vec::new();
-    let mut inputs = Vec::new();
-    for k in 1..=subjects {
-        let path = rec_dir.join(format!("s{k:02}_samples.txt"));
-        files.push(ingest_file(&path, &params).map_err(anyhow::Error::msg)?);
-        inputs.push(InputFile::hash(&path)?);
-    }
-    check_one_source_per_subject(&files).map_err(anyhow::Error::msg)?;
-    create_output_dir(ing_dir)?;
-    write_ingest_tables(ing_dir, &files).map_err(anyhow::Error::msg)?;
-    write_ingest_json(ing_dir, &files, inputs, protocol, &params).map_err(anyhow::Error::msg)?;
-    Ok(())
-}
-
-/// One line on the projection: fates, the self-check and the round trip.
-fn projection_summary(pj: &serde_json::Value) -> String {
-    let totals = pj["totals"]
-        .as_object()
-        .map(|m| {
-            m.iter()
-                .filter(|(_, v)| v.as_u64() != Some(0))
-                .map(|(k, v)| format!("{v} {k}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        })
-        .unwrap_or_default();
-    format!(
-        "    fates: {totals}; self-check {}+{} sub-pixel of {}; round trip {}/{} within 1° of the true target",
-        pj["self_check"]["agreed"],
-        pj["self_check"]["sub_pixel"],
-        pj["self_check"]["checked"],
-        pj["round_trip"]["within_1deg"],
-        pj["round_trip"]["matched"]
-    )
-}
-
-/// The maps the demo scores, with their seconds and Gini indices.
-type DemoMaps = (
-    Vec<(String, Vec<f64>)>,
-    Vec<(String, f64)>,
-    Vec<(&'static str, f64)>,
-);
-
-/// Step 6: the paper's seven methods, each written as the `saliency` command writes it.
-fn saliency_step(
-    mesh_path: &Path,
-    mesh: &Mesh,
-    load: &LoadReport,
-    sal_dir: &Path,
-) -> Result<DemoMaps> {
-    let mut maps = Vec::new();
-    let mut seconds = Vec::new();
-    let mut ginis = Vec::new();
-    for method in PAPER_METHODS {
-        let r = compute_and_write_map(
-            mesh_path,
-            mesh,
-            load,
-            InputFile::hash(mesh_path)?,
-            method,
-            &SmsParams::default(),
-            &meshgaze::saliency::Viewing::builtin(),
-            MapOutputs::default(),
-            &sal_dir.join(format!("bunny_{}", method.name())),
-            &meshgaze::progress::Silent,
-        )?;
-        seconds.push((method.name().to_string(), r.seconds));
-        ginis.push((method.name(), r.gini));
-        maps.push((method.name().to_string(), r.values));
-    }
-    Ok((maps, seconds, ginis))
-}
-
-fn print_scores(score: &MeshScore, ginis: &[(&str, f64)], truth: &TruthResult) {
+fn print_scores(
+    score: &meshgaze::scoring::MeshScore,
+    ginis: &[(&str, f64)],
+    truth: &meshgaze::truth::TruthResult,
+) {
     for m in &score.summaries {
         let gini = ginis
             .iter()
@@ -347,34 +88,4 @@ fn print_scores(score: &MeshScore, ginis: &[(&str, f64)], truth: &TruthResult) {
         "  human   AUC-Judd {:.3} peak at σ_b {:.2} (split-half ceiling)",
         truth.sidecar.human_auc_judd_peak, truth.sidecar.human_auc_judd_peak_blur
     );
-}
-
-/// Step 7: the maps scored against the truth: score.csv, score.json and the charts.
-fn score_step(
-    mesh: &Mesh,
-    seen: &[bool],
-    truth: &TruthResult,
-    maps: &[(String, Vec<f64>)],
-    score_dir: &Path,
-    bars: &Bars,
-) -> Result<(MeshScore, Vec<String>)> {
-    create_output_dir(score_dir)?;
-    let score = score_mesh(
-        mesh,
-        &truth.truth,
-        maps,
-        &ScoreParams::default(),
-        Some(seen),
-        bars,
-    )
-    .map_err(anyhow::Error::msg)?;
-    let mut csv = format!("{SCORE_CSV_HEADER}\n").into_bytes();
-    write_score_rows(&mut csv, "bunny", &score.rows)?;
-    std::fs::write(score_dir.join("score.csv"), csv)?;
-    std::fs::write(
-        score_dir.join("score.json"),
-        serde_json::to_string_pretty(&score.summaries)? + "\n",
-    )?;
-    let plots = write_score_plots(&score_dir.join("score"), "bunny", maps, &score)?;
-    Ok((score, plots))
 }

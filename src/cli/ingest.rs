@@ -8,14 +8,13 @@ use clap::Args;
 use meshgaze::file_bytes::create_output_dir;
 use meshgaze::gaze::fixations::{Detector, EyePolicy, Fate, Fixation};
 use meshgaze::gaze::ingest::{
-    check_one_source_per_subject, ingest_file, message_kind_counts, stimuli_of, write_ingest_json,
-    write_ingest_tables, write_samples_rows, IngestParams, IngestedFile, SAMPLES_CSV_HEADER,
+    ingest_files, message_kind_counts, stimuli_of, write_ingest, write_samples_rows, IngestParams,
+    IngestedFile, SAMPLES_CSV_HEADER,
 };
 use meshgaze::gaze::stimulus_messages::{classify_messages, message_census, stimulus_segments};
 use meshgaze::gaze::validity::ValidityRule;
 use meshgaze::gaze::{read_smi, SmiFormat};
 use meshgaze::protocol::Protocol;
-use meshgaze::provenance::InputFile;
 
 /// Read SMI eye-tracker exports, find fixations, apply the protocol's filter, report quality.
 ///
@@ -244,19 +243,10 @@ pub fn run(args: IngestArgs) -> Result<()> {
         return list_messages(&args, &params);
     }
     let out = args.output.clone().expect("clap requires --output");
-    let mut files = Vec::new();
-    let mut inputs = Vec::new();
-    for file in &args.files {
-        let f = ingest_file(file, &params).map_err(anyhow::Error::msg)?;
-        inputs.push(
-            InputFile::hash(file).with_context(|| format!("cannot read {}", file.display()))?,
-        );
-        if !args.quiet {
-            print_file_summary(&f);
-        }
-        files.push(f);
+    let (files, inputs) = ingest_files(&args.files, &params).map_err(anyhow::Error::msg)?;
+    if !args.quiet {
+        files.iter().for_each(print_file_summary);
     }
-    check_one_source_per_subject(&files).map_err(anyhow::Error::msg)?;
     create_output_dir(&out)?;
     if args.samples {
         let p = out.join("samples.csv");
@@ -271,14 +261,13 @@ pub fn run(args: IngestArgs) -> Result<()> {
     if all_fix.is_empty() && !args.quiet {
         eprintln!("warning: no fixations found in any file (each file's reason is above)");
     }
-    write_ingest_tables(&out, &files).map_err(anyhow::Error::msg)?;
+    let (_, j) =
+        write_ingest(&out, &files, inputs, &protocol, &params).map_err(anyhow::Error::msg)?;
     let (p, m, q) = (
         out.join("fixations.csv"),
         out.join("messages.csv"),
         out.join("quality.csv"),
     );
-    let j =
-        write_ingest_json(&out, &files, inputs, &protocol, &params).map_err(anyhow::Error::msg)?;
     if !args.quiet {
         eprintln!(
             "wrote {}, {}, {}, {}",

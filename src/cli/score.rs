@@ -1,25 +1,16 @@
-use std::io::Write;
 use std::path::PathBuf;
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Args;
-use serde::Serialize;
 
 use meshgaze::gaze_model::GazeModel;
-use meshgaze::mesh::load_mesh;
 use meshgaze::protocol::Protocol;
-use meshgaze::provenance::{InputFile, Provenance};
-use meshgaze::report::score_plots::write_score_plots;
 use meshgaze::saliency::map_file::output_prefix;
-use meshgaze::saliency::{compute_saliency_viewed, Method, RarityParams, SmsParams, Viewing};
-use meshgaze::scoring::dataset::{
-    dataset_pairs, mean_summaries, mesh_stem, score_table_markdown, write_score_rows, MeshEntry,
-    SCORE_CSV_HEADER,
-};
+use meshgaze::saliency::{Method, RarityParams, Viewing};
+use meshgaze::scoring::dataset::{dataset_pairs, mesh_stem, score_table_markdown};
 use meshgaze::scoring::surface_blur::BlurKernel;
-use meshgaze::scoring::{blur_grid, score_mesh, MeshScore, MethodSummary, ScoreParams, Weighting};
-use meshgaze::stimulus::hold_views::hold_view_exposure;
-use meshgaze::truth::{load_ground_truth, GroundTruth};
+use meshgaze::scoring::{blur_grid, ScoreParams, Weighting};
+use meshgaze::study::score_dataset::{score_dataset, ScoreRequest, ScoredMesh};
 
 use super::progress_bar::Bars;
 
@@ -102,26 +93,6 @@ pub struct ScoreArgs {
     pub settings: Vec<String>,
 }
 
-/// Refuses to score the gaze model on an object it was trained on.
-fn refuse_training_object(viewing: &Viewing, mesh_name: &str) -> Result<()> {
-    let model = viewing.gaze_model();
-    if model.training.objects.iter().any(|o| o.name == mesh_name) {
-        bail!(
-            "{mesh_name}: the gaze model was trained on an object named `{mesh_name}`, so its score here would be a training-set figure; `meshgaze train --cv` gives leave-one-object-out figures, or pass --model trained without it"
-        );
-    }
-    Ok(())
-}
-
-#[derive(Serialize)]
-struct Summary<'a> {
-    provenance: Provenance,
-    parameters: &'a ScoreParams,
-    top_fraction: f64,
-    meshes: Vec<MeshEntry>,
-    mean: Vec<MethodSummary>,
-}
-
 pub fn run(args: ScoreArgs) -> Result<()> {
     let params = ScoreParams {
         blur_sigmas: blur_grid(args.blur_max, args.blur_step).map_err(anyhow::Error::msg)?,
@@ -131,9 +102,6 @@ pub fn run(args: ScoreArgs) -> Result<()> {
         seed: args.seed,
         ..ScoreParams::default()
     };
-    if !(args.top_fraction > 0.0 && args.top_fraction <= 1.0) {
-        bail!("--top-fraction must be in (0, 1]");
-    }
     let pairs: Vec<(String, PathBuf, PathBuf)> = match (&args.dataset, &args.mesh, &args.truth) {
         (Some(dir), _, _) => dataset_pairs(dir)?,
         (None, Some(mesh), Some(truth)) => {
@@ -141,10 +109,6 @@ pub fn run(args: ScoreArgs) -> Result<()> {
         }
         _ => bail!("give --mesh and --truth, or --dataset DIR (see meshgaze score --help)"),
     };
-    if args.method.is_empty() && args.saliency.is_empty() {
-        bail!("nothing to score: give --method (e.g. sms,ms,mc) and/or --saliency FILE");
-    }
-    let bars = Bars::new(args.quiet);
     let (protocol, _, _) = Protocol::load_or_builtin(args.protocol.as_deref())?;
     let model = match &args.model {
         Some(path) => Some(GazeModel::load(path).map_err(anyhow::Error::msg)?),
@@ -158,101 +122,35 @@ pub fn run(args: ScoreArgs) -> Result<()> {
         model,
         rarity,
     };
-    let mut inputs = Vec::new();
-    let mut entries = Vec::new();
-    let prefix = output_prefix(&args.output);
-    if let Some(dir) = prefix.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
-    }
-    let csv_path = PathBuf::from(format!("{}.csv", prefix.display()));
-    let mut csv = std::io::BufWriter::new(
-        std::fs::File::create(&csv_path)
-            .with_context(|| format!("cannot create {}", csv_path.display()))?,
-    );
-    writeln!(csv, "{SCORE_CSV_HEADER}")?;
-    for (name, mesh_path, truth_path) in &pairs {
-        let (mesh, load) = load_mesh(mesh_path)?;
-        let truth = load_ground_truth(truth_path, mesh.positions.len(), args.top_fraction)?;
-        inputs.push(InputFile::hash(mesh_path)?);
-        inputs.push(InputFile::hash(truth_path)?);
-        let mut maps = Vec::new();
-        let mut seconds = Vec::new();
-        for file in &args.saliency {
-            let GroundTruth::VertexMap(m) = load_ground_truth(file, mesh.positions.len(), 0.05)?
-            else {
-                bail!(
-                    "{}: expected a per-vertex map (vertex,saliency)",
-                    file.display()
-                );
-            };
-            inputs.push(InputFile::hash(file)?);
-            let stem = file.file_name().unwrap_or_default().to_string_lossy();
-            maps.push((
-                stem.split('.').next().unwrap_or("map").to_string(),
-                m.values,
-            ));
-        }
-        for &method in &args.method {
-            if method == Method::Gaze {
-                refuse_training_object(&viewing, name)?;
-            }
-            let out =
-                compute_saliency_viewed(method, &mesh, &SmsParams::default(), &viewing, &bars)
-                    .map_err(|e| anyhow::anyhow!("{}: {e}", mesh_path.display()))?;
-            seconds.push((method.name().to_string(), out.seconds));
-            maps.push((method.name().to_string(), out.values));
-        }
-        let seen = hold_view_exposure(&mesh, &viewing.protocol)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", mesh_path.display()))?
-            .seen();
-        let score: MeshScore = score_mesh(&mesh, &truth, &maps, &params, Some(&seen), &bars)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", mesh_path.display()))?;
-        let plots = write_score_plots(&prefix, name, &maps, &score)?;
-        write_score_rows(&mut csv, name, &score.rows)?;
-        if !args.quiet {
-            eprintln!("{name}: plots {}", plots.join(", "));
-            eprintln!(
-                "{name}: {} vertices, {} positives, {} fixations{}",
-                mesh.positions.len(),
-                score.positives,
-                score.fixations,
-                if score.human_splits > 0 {
-                    format!(", human ceiling over {} splits", score.human_splits)
-                } else {
-                    String::new()
-                }
-            );
-        }
-        entries.push(MeshEntry {
-            mesh: name.clone(),
-            load,
-            truth_kind: match truth {
-                GroundTruth::VertexMap(_) => "vertex_map",
-                GroundTruth::Fixations(_) => "fixations",
-            },
-            positives: score.positives,
-            fixations: score.fixations,
-            human_splits: score.human_splits,
-            chance_auc_judd: score.chance_auc_judd.clone(),
-            seconds_per_method: seconds,
-            summaries: score.summaries,
-        });
-    }
-    csv.flush()?;
-    let mean = mean_summaries(&entries);
-    print!("{}", score_table_markdown(&entries, &mean));
-    let json_path = PathBuf::from(format!("{}.json", prefix.display()));
-    let summary = Summary {
-        provenance: Provenance::new(inputs),
-        parameters: &params,
+    let request = ScoreRequest {
+        pairs: &pairs,
+        saliency_files: &args.saliency,
+        methods: &args.method,
+        params: &params,
         top_fraction: args.top_fraction,
-        meshes: entries,
-        mean,
+        viewing: &viewing,
     };
-    std::fs::write(&json_path, serde_json::to_string_pretty(&summary)? + "\n")
-        .with_context(|| format!("cannot write {}", json_path.display()))?;
+    let quiet = args.quiet;
+    let mut tell = |m: &ScoredMesh| {
+        if quiet {
+            return;
+        }
+        eprintln!("{}: plots {}", m.name, m.plots.join(", "));
+        let ceiling = if m.human_splits > 0 {
+            format!(", human ceiling over {} splits", m.human_splits)
+        } else {
+            String::new()
+        };
+        eprintln!(
+            "{}: {} vertices, {} positives, {} fixations{ceiling}",
+            m.name, m.vertices, m.score_positives, m.score_fixations
+        );
+    };
+    let bars = Bars::new(args.quiet);
+    let out = score_dataset(&request, &output_prefix(&args.output), &bars, &mut tell)?;
+    print!("{}", score_table_markdown(&out.entries, &out.mean));
     if !args.quiet {
-        eprintln!("wrote {}, {}", csv_path.display(), json_path.display());
+        eprintln!("wrote {}, {}", out.csv.display(), out.json.display());
     }
     Ok(())
 }

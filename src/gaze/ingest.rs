@@ -336,6 +336,40 @@ pub fn ingest_file(path: &Path, params: &IngestParams) -> Result<IngestedFile, S
     })
 }
 
+/// Ingests `paths` in order, each hashed for provenance, then checks them against each other
+/// (one source per subject and stimulus). The sequence `meshgaze ingest`, the demo and a
+/// study share.
+pub fn ingest_files(
+    paths: &[PathBuf],
+    params: &IngestParams,
+) -> Result<(Vec<IngestedFile>, Vec<InputFile>), String> {
+    let mut files = Vec::new();
+    let mut inputs = Vec::new();
+    for path in paths {
+        files.push(ingest_file(path, params)?);
+        inputs.push(
+            InputFile::hash(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?,
+        );
+    }
+    check_one_source_per_subject(&files)?;
+    Ok((files, inputs))
+}
+
+/// Writes DIR (created) /fixations.csv, messages.csv, quality.csv and ingest.json; returns the
+/// number of fixations written and ingest.json's path.
+pub fn write_ingest(
+    dir: &Path,
+    files: &[IngestedFile],
+    inputs: Vec<InputFile>,
+    protocol: &Protocol,
+    params: &IngestParams,
+) -> Result<(usize, PathBuf), String> {
+    crate::file_bytes::create_output_dir(dir).map_err(|e| e.to_string())?;
+    let fixations = write_ingest_tables(dir, files)?;
+    let json = write_ingest_json(dir, files, inputs, protocol, params)?;
+    Ok((fixations, json))
+}
+
 /// Refuses two files that are one recording (the same stimulus onsets at the same tracker
 /// times: a sample export and an event export of it) or that give the same subject fixations
 /// on the same stimulus: either would count that subject's fixations twice.

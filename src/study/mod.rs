@@ -1,7 +1,9 @@
 //! A whole study: a folder of meshes and a lab's SMI recordings to stimuli, fixations, ground
 //! truth, saliency maps and scores, resumable and shardable. May import every pipeline stage.
 pub mod config;
+pub mod demo;
 pub mod run;
+pub mod score_dataset;
 
 pub use config::{template, Study, StudyMesh};
 pub use run::{merge_scores, run_study, shard_of, RunOptions, StudyRun};

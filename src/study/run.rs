@@ -12,9 +12,7 @@ use serde::Serialize;
 
 use super::config::{stem_of, Study, StudyMesh};
 use crate::file_bytes::create_output_dir;
-use crate::gaze::ingest::{
-    check_one_source_per_subject, ingest_file, write_ingest_tables, IngestParams,
-};
+use crate::gaze::ingest::{check_one_source_per_subject, ingest_file, write_ingest, IngestParams};
 use crate::mesh::load_mesh;
 use crate::progress::{Progress, Silent};
 use crate::projection::project_file::{project_files, write_projection, ProjectOptions};
@@ -357,8 +355,15 @@ fn ingest_all(study: &Study, protocol_hash: &str) -> Result<(StepLog, Vec<String
     if let Err(e) = check_one_source_per_subject(&files) {
         anyhow::bail!("{e}");
     }
-    create_output_dir(&dir)?;
-    let fixations = write_ingest_tables(&dir, &files).map_err(anyhow::Error::msg)?;
+    for f in &files {
+        problems.extend(f.warnings.iter().cloned());
+    }
+    let inputs = files
+        .iter()
+        .map(|f| InputFile::hash(&f.path))
+        .collect::<std::io::Result<Vec<_>>>()?;
+    let (fixations, _) =
+        write_ingest(&dir, &files, inputs, &study.protocol, &params).map_err(anyhow::Error::msg)?;
     std::fs::write(
         &problems_file,
         problems

@@ -1,0 +1,191 @@
+//! Scoring a set of meshes against their human truth: maps read from files and/or computed
+//! by the methods, each mesh scored over the blur grid with its chance band and human ceiling,
+//! the rows in one score CSV, plots per mesh, and the summary JSON with the mean over meshes.
+//! What `meshgaze score` runs, for one mesh or a `--dataset` folder.
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use serde::Serialize;
+
+use crate::mesh::load_mesh;
+use crate::progress::Progress;
+use crate::provenance::{InputFile, Provenance};
+use crate::report::score_plots::write_score_plots;
+use crate::saliency::{compute_saliency_viewed, Method, SmsParams, Viewing};
+use crate::scoring::dataset::{mean_summaries, write_score_rows, MeshEntry, SCORE_CSV_HEADER};
+use crate::scoring::{score_mesh, MeshScore, MethodSummary, ScoreParams};
+use crate::stimulus::hold_views::hold_view_exposure;
+use crate::truth::{load_ground_truth, GroundTruth};
+
+/// What to score, and how.
+pub struct ScoreRequest<'a> {
+    /// (name, mesh file, truth file) per mesh.
+    pub pairs: &'a [(String, PathBuf, PathBuf)],
+    /// Map files to score beside the methods (named by their file stem; one mesh only).
+    pub saliency_files: &'a [PathBuf],
+    pub methods: &'a [Method],
+    pub params: &'a ScoreParams,
+    /// For per-vertex truth maps without a 0/1 column: the top fraction taken as fixated.
+    pub top_fraction: f64,
+    /// The protocol (hold views, priors), the gaze model and the rarity parameters.
+    pub viewing: &'a Viewing,
+}
+
+/// One mesh, scored: what the caller may print.
+pub struct ScoredMesh {
+    pub name: String,
+    pub vertices: usize,
+    pub score_positives: usize,
+    pub score_fixations: usize,
+    pub human_splits: usize,
+    pub plots: Vec<String>,
+}
+
+/// What was written.
+pub struct ScoreOutputs {
+    pub csv: PathBuf,
+    pub json: PathBuf,
+    pub entries: Vec<MeshEntry>,
+    pub mean: Vec<MethodSummary>,
+}
+
+#[derive(Serialize)]
+struct Summary<'a> {
+    provenance: Provenance,
+    parameters: &'a ScoreParams,
+    top_fraction: f64,
+    meshes: Vec<MeshEntry>,
+    mean: Vec<MethodSummary>,
+}
+
+/// Refuses to score the gaze model on an object it was trained on.
+fn refuse_training_object(viewing: &Viewing, mesh_name: &str) -> Result<()> {
+    let model = viewing.gaze_model();
+    if model.training.objects.iter().any(|o| o.name == mesh_name) {
+        bail!(
+            "{mesh_name}: the gaze model was trained on an object named `{mesh_name}`, so its score here would be a training-set figure; `meshgaze train --cv` gives leave-one-object-out figures, or pass --model trained without it"
+        );
+    }
+    Ok(())
+}
+
+/// The maps to score on one mesh: the files, then each method computed, with its seconds.
+#[allow(clippy::type_complexity)]
+fn maps_of(
+    req: &ScoreRequest,
+    name: &str,
+    mesh_path: &Path,
+    mesh: &crate::mesh::Mesh,
+    inputs: &mut Vec<InputFile>,
+    progress: &dyn Progress,
+) -> Result<(Vec<(String, Vec<f64>)>, Vec<(String, f64)>)> {
+    let mut maps = Vec::new();
+    let mut seconds = Vec::new();
+    for file in req.saliency_files {
+        let GroundTruth::VertexMap(m) = load_ground_truth(file, mesh.positions.len(), 0.05)? else {
+            bail!(
+                "{}: expected a per-vertex map (vertex,saliency)",
+                file.display()
+            );
+        };
+        inputs.push(InputFile::hash(file)?);
+        let stem = file.file_name().unwrap_or_default().to_string_lossy();
+        maps.push((
+            stem.split('.').next().unwrap_or("map").to_string(),
+            m.values,
+        ));
+    }
+    for &method in req.methods {
+        if method == Method::Gaze {
+            refuse_training_object(req.viewing, name)?;
+        }
+        let out =
+            compute_saliency_viewed(method, mesh, &SmsParams::default(), req.viewing, progress)
+                .map_err(|e| anyhow::anyhow!("{}: {e}", mesh_path.display()))?;
+        seconds.push((method.name().to_string(), out.seconds));
+        maps.push((method.name().to_string(), out.values));
+    }
+    Ok((maps, seconds))
+}
+
+/// Scores every mesh of `req` and writes PREFIX.csv, PREFIX.json and the plots beside them;
+/// `on_mesh` is told of each mesh as it is done.
+pub fn score_dataset(
+    req: &ScoreRequest,
+    prefix: &Path,
+    progress: &dyn Progress,
+    on_mesh: &mut dyn FnMut(&ScoredMesh),
+) -> Result<ScoreOutputs> {
+    if !(req.top_fraction > 0.0 && req.top_fraction <= 1.0) {
+        bail!("--top-fraction must be in (0, 1]");
+    }
+    if req.methods.is_empty() && req.saliency_files.is_empty() {
+        bail!("nothing to score: give --method (e.g. sms,ms,mc) and/or --saliency FILE");
+    }
+    if let Some(dir) = prefix.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    }
+    let csv_path = PathBuf::from(format!("{}.csv", prefix.display()));
+    let mut csv = std::io::BufWriter::new(
+        std::fs::File::create(&csv_path)
+            .with_context(|| format!("cannot create {}", csv_path.display()))?,
+    );
+    writeln!(csv, "{SCORE_CSV_HEADER}")?;
+    let mut inputs = Vec::new();
+    let mut entries = Vec::new();
+    for (name, mesh_path, truth_path) in req.pairs {
+        let (mesh, load) = load_mesh(mesh_path)?;
+        let truth = load_ground_truth(truth_path, mesh.positions.len(), req.top_fraction)?;
+        inputs.push(InputFile::hash(mesh_path)?);
+        inputs.push(InputFile::hash(truth_path)?);
+        let (maps, seconds) = maps_of(req, name, mesh_path, &mesh, &mut inputs, progress)?;
+        let seen = hold_view_exposure(&mesh, &req.viewing.protocol)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", mesh_path.display()))?
+            .seen();
+        let score: MeshScore = score_mesh(&mesh, &truth, &maps, req.params, Some(&seen), progress)
+            .map_err(|e| anyhow::anyhow!("{}: {e}", mesh_path.display()))?;
+        let plots = write_score_plots(prefix, name, &maps, &score)?;
+        write_score_rows(&mut csv, name, &score.rows)?;
+        on_mesh(&ScoredMesh {
+            name: name.clone(),
+            vertices: mesh.positions.len(),
+            score_positives: score.positives,
+            score_fixations: score.fixations,
+            human_splits: score.human_splits,
+            plots,
+        });
+        entries.push(MeshEntry {
+            mesh: name.clone(),
+            load,
+            truth_kind: match truth {
+                GroundTruth::VertexMap(_) => "vertex_map",
+                GroundTruth::Fixations(_) => "fixations",
+            },
+            positives: score.positives,
+            fixations: score.fixations,
+            human_splits: score.human_splits,
+            chance_auc_judd: score.chance_auc_judd.clone(),
+            seconds_per_method: seconds,
+            summaries: score.summaries,
+        });
+    }
+    csv.flush()?;
+    let mean = mean_summaries(&entries);
+    let json_path = PathBuf::from(format!("{}.json", prefix.display()));
+    let summary = Summary {
+        provenance: Provenance::new(inputs),
+        parameters: req.params,
+        top_fraction: req.top_fraction,
+        meshes: entries,
+        mean,
+    };
+    std::fs::write(&json_path, serde_json::to_string_pretty(&summary)? + "\n")
+        .with_context(|| format!("cannot write {}", json_path.display()))?;
+    Ok(ScoreOutputs {
+        csv: csv_path,
+        json: json_path,
+        entries: summary.meshes,
+        mean: summary.mean,
+    })
+}
