@@ -47,6 +47,7 @@ pub mod file_bytes;
 pub mod gaze;
 pub mod gaze_model;
 pub mod mesh;
+pub mod pipeline;
 pub mod progress;
 pub mod projection;
 pub mod protocol;

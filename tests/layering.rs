@@ -21,6 +21,7 @@ const ORDER: &[&str] = &[
     "saliency",
     "experiments",
     "report",
+    "pipeline",
     "study",
     "cli",
 ];

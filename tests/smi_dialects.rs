@@ -452,3 +452,21 @@ mod properties {
         }
     }
 }
+
+/// A crash libFuzzer found (a duration of 1.7e18 ms overflowed the fixation's end): the row is
+/// now counted as unusable with its reason.
+#[test]
+fn a_fixation_time_out_of_range_is_counted_not_a_panic() {
+    let bytes = std::fs::read(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data/fuzz_begaze_fixations_overflow.txt"),
+    )
+    .unwrap();
+    let r = parse_smi(&bytes, "crash.txt", Some(SmiFormat::BeGazeFixations)).unwrap();
+    assert_eq!(r.rows.accounted(), r.rows.lines);
+    assert!(
+        r.rows.unusable.contains_key("fixation time out of range"),
+        "{:?}",
+        r.rows.unusable
+    );
+}

@@ -4,13 +4,13 @@ use anyhow::{bail, Result};
 use clap::Args;
 
 use meshgaze::gaze_model::GazeModel;
+use meshgaze::pipeline::score_dataset::{score_dataset, ScoreRequest, ScoredMesh};
 use meshgaze::protocol::Protocol;
 use meshgaze::saliency::map_file::output_prefix;
 use meshgaze::saliency::{Method, RarityParams, Viewing};
 use meshgaze::scoring::dataset::{dataset_pairs, mesh_stem, score_table_markdown};
 use meshgaze::scoring::surface_blur::BlurKernel;
 use meshgaze::scoring::{blur_grid, ScoreParams, Weighting};
-use meshgaze::study::score_dataset::{score_dataset, ScoreRequest, ScoredMesh};
 
 use super::progress_bar::Bars;
 

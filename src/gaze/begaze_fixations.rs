@@ -192,6 +192,13 @@ impl Columns {
             })
             .unwrap_or(1);
         let number = optional(self.number)?.map_or(0, |n| n.max(0.0) as u64);
+        // Beyond ±2^53 µs (285 years) a time is not a recording's: refuse it rather than
+        // let the end overflow.
+        const LIMIT_MS: f64 = 9.007e12;
+        if start_ms.abs() > LIMIT_MS || duration_ms > LIMIT_MS {
+            let c = self.duration.or(self.end).unwrap_or(self.start);
+            return Err(("fixation time out of range".into(), f[c].0));
+        }
         let start_us = (start_ms * 1000.0).round() as i64;
         let duration_us = (duration_ms * 1000.0).round() as i64;
         Ok(Event {

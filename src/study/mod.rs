@@ -3,7 +3,6 @@
 pub mod config;
 pub mod demo;
 pub mod run;
-pub mod score_dataset;
 
 pub use config::{template, Study, StudyMesh};
 pub use run::{merge_scores, run_study, shard_of, RunOptions, StudyRun};
