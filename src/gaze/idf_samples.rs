@@ -287,7 +287,7 @@ fn parse_rows(chunk: &[(usize, &str)], layout: &Layout) -> (Vec<Sample>, Vec<Mes
                     };
                     let (x, y) = (x.unwrap_or(0.0), y.unwrap_or(0.0));
                     let flag_lost = validity == Some(0.0);
-                    let valid = !flag_lost && !(x == 0.0 && y == 0.0);
+                    let valid = !(flag_lost || (x == 0.0 && y == 0.0));
                     eyes[k] = Some(EyeSample {
                         x,
                         y,

@@ -1,7 +1,7 @@
-//! Format A2: iView X 2.x sample files (`#FileVersion:	2`). A header of `#` lines
-//! (`#Fileformat:`, `#Subject:`, `## Date:	September 19, 2008`, `## of Pts Recorded:`,
-//! `#Offset Of Calibration Area:`, `#Size Of Calibration Area:	800	600`, `#Sample Rate:	60`),
-//! a `#Time	Set	Pupil H	Pupil V	C.R. H	C.R. V	ScreenH	ScreenV	Diam H	Diam V` column line,
+//! Format A2: iView X 2.x sample files (`#FileVersion: 2`). A header of `#` lines
+//! (`#Fileformat:`, `#Subject:`, `## Date: September 19, 2008`, `## of Pts Recorded:`,
+//! `#Offset Of Calibration Area:`, `#Size Of Calibration Area: 800 600`, `#Sample Rate: 60`),
+//! a `#Time Set Pupil H Pupil V C.R. H C.R. V ScreenH ScreenV Diam H Diam V` column line,
 //! then TAB-separated numeric rows. `Time` is milliseconds; `ScreenH`/`ScreenV` are the gaze
 //! in pixels of the calibration area. One eye, and the file does not say which.
 use super::idf_samples::parse_header_line;

@@ -33,7 +33,7 @@ pub enum SmiFormat {
     #[cfg_attr(feature = "cli", value(name = "b-fix"))]
     #[serde(rename = "B-fix")]
     BeGazeFixations,
-    /// iView X 2.x sample file (`#FileVersion:	2`): `#` header, `#Time	Set	…	ScreenH	ScreenV`
+    /// iView X 2.x sample file (`#FileVersion: 2`): `#` header, `#Time Set … ScreenH ScreenV`
     /// columns, integer ms times, one eye.
     #[cfg_attr(feature = "cli", value(name = "a2"))]
     #[serde(rename = "A2")]
