@@ -236,10 +236,8 @@ fn data_folder(given: Option<&std::path::Path>) -> Result<PathBuf> {
         None => std::env::var_os("MESHGAZE_DATA")
             .map(PathBuf::from)
             .into_iter()
-            .chain([
-                PathBuf::from("../shared/data"),
-                PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data"),
-            ])
+            // Beside the source tree the binary was built from; never the working directory.
+            .chain([PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/data")])
             .collect(),
     };
     if let Some(d) = candidates

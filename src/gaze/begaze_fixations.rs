@@ -11,7 +11,9 @@
 use super::recording::{
     Event, EventKind, Eye, GazeError, Header, Recording, RowAccount, SmiFormat,
 };
-use super::text::{decode, header_row, is_missing, lines, number, table_row, Separator};
+use super::text::{
+    decode, header_row, is_missing, lines, number, required_column, table_row, Separator,
+};
 
 /// The columns detection looks for on the first line.
 pub(crate) const SIGNATURE: [&str; 3] = [
@@ -43,14 +45,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     let all = lines(&text);
     let (sep, columns) = header_row(&all, path)?;
     let col = |name: &str| columns.iter().position(|c| c == name);
-    let need = |name: &str| {
-        col(name).ok_or_else(|| GazeError::At {
-            path: path.to_string(),
-            line: 1,
-            column: 1,
-            message: format!("no `{name}` column: not a BeGaze fixation export"),
-        })
-    };
+    let need = |name: &str| required_column(&columns, name, path, "BeGaze fixation export");
     let cols = Columns {
         start: need("Fixation Start [ms]")?,
         duration: col("Fixation Duration [ms]"),

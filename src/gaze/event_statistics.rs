@@ -7,7 +7,9 @@
 use super::recording::{
     Event, EventKind, Eye, GazeError, Header, Recording, RowAccount, SmiFormat,
 };
-use super::text::{decode, header_row, is_missing, lines, number, table_row, Separator};
+use super::text::{
+    decode, header_row, is_missing, lines, number, required_column, table_row, Separator,
+};
 
 /// The field under the column called `name`.
 fn field<'a>(columns: &[String], f: &[(usize, &'a str)], name: &str) -> Option<(usize, &'a str)> {
@@ -32,14 +34,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     let all = lines(&text);
     let (sep, columns) = header_row(&all, path)?;
     let col = |name: &str| columns.iter().position(|c| c == name);
-    let need = |name: &str| {
-        col(name).ok_or_else(|| GazeError::At {
-            path: path.to_string(),
-            line: 1,
-            column: 1,
-            message: format!("no `{name}` column: not a BeGaze Event Statistics export"),
-        })
-    };
+    let need = |name: &str| required_column(&columns, name, path, "BeGaze Event Statistics export");
     let cols = Columns {
         start: need("Event Start Trial Time [ms]")?,
         end: need("Event End Trial Time [ms]")?,

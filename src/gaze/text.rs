@@ -66,6 +66,25 @@ pub(crate) fn header_row(
     Ok((sep, columns))
 }
 
+/// The index of the column called `name` of a one-table export, or an error at the header
+/// saying the file is not `export`.
+pub(crate) fn required_column(
+    columns: &[String],
+    name: &str,
+    path: &str,
+    export: &str,
+) -> Result<usize, super::recording::GazeError> {
+    columns
+        .iter()
+        .position(|c| c == name)
+        .ok_or_else(|| super::recording::GazeError::At {
+            path: path.to_string(),
+            line: 1,
+            column: 1,
+            message: format!("no `{name}` column: not a {export}"),
+        })
+}
+
 /// The fields of a data row of a one-table export, or None after counting the line: as blank,
 /// or as unusable when its field count differs from the header's.
 pub(crate) fn table_row<'a>(
