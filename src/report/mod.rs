@@ -5,5 +5,6 @@ pub mod html;
 pub mod map_render;
 pub mod mesh_page;
 pub mod plot;
+pub mod robustness_report;
 pub mod score_plots;
 pub mod study_report;
