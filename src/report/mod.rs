@@ -1,5 +1,6 @@
 //! What a person looks at: the HTML reports, line charts and coloured renders of per-vertex
 //! maps. May import every library stage (it shows their results); no stage imports it.
+pub mod cross_validation_report;
 pub mod demo_report;
 pub mod html;
 pub mod map_render;

@@ -657,7 +657,8 @@ fn score_step(
     std::fs::write(&score_file, bytes)
         .with_context(|| format!("cannot write {}", score_file.display()))?;
     write_chance_draws(&chance_file, &score.chance_auc_judd)?;
-    let density = read_density(&truth_dir.join("density.csv"), stim.mesh.positions.len())?;
+    let density =
+        crate::truth::read_density(&truth_dir.join("density.csv"), stim.mesh.positions.len())?;
     let truth_json_path = truth_dir.join("truth.json");
     let truth_json: serde_json::Value = serde_json::from_slice(
         &std::fs::read(&truth_json_path)
@@ -710,36 +711,6 @@ fn score_step(
     stamp(&stamp_dir, &key)?;
     logs.push(log(&m.name, "score", "done", ""));
     Ok(())
-}
-
-/// The `density` column of a truth folder's density.csv, one value per vertex.
-/// The `density` column of a truth folder's density.csv, one value per vertex.
-pub fn read_density(path: &Path, n: usize) -> Result<Vec<f64>> {
-    let mut r =
-        csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let col = r
-        .headers()?
-        .iter()
-        .position(|h| h == "density")
-        .with_context(|| format!("{}: no `density` column", path.display()))?;
-    let mut values = Vec::with_capacity(n);
-    for (i, rec) in r.records().enumerate() {
-        let rec = rec?;
-        values.push(
-            rec.get(col)
-                .unwrap_or("")
-                .parse::<f64>()
-                .with_context(|| format!("{}: line {}: not a number", path.display(), i + 2))?,
-        );
-    }
-    if values.len() != n {
-        anyhow::bail!(
-            "{}: {} rows for a mesh of {n} vertices",
-            path.display(),
-            values.len()
-        );
-    }
-    Ok(values)
 }
 
 /// Joins OUT/scores/<mesh>.csv of every mesh present (from any shard) into OUT/scores.csv, in

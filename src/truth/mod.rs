@@ -3,6 +3,9 @@
 //! `time bin` files of the VR dataset), or a fixation set (CSV with `subject` and `vertex`
 //! columns, one row per fixation, as `meshgaze truth` writes).
 pub mod build;
+mod density_file;
+
+pub use density_file::read_density;
 
 pub use build::{
     build_truth, projected_file, read_projections, write_truth, Projections, TruthParams,
