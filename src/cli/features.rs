@@ -4,7 +4,7 @@ use anyhow::{bail, Result};
 use clap::Args;
 
 use meshgaze::experiments::features::evaluation_files::SeparationUnit;
-use meshgaze::mesh::load_mesh;
+use meshgaze::mesh::{load_mesh, Mesh};
 use meshgaze::pipeline::feature_points::{run_feature_points, FeatureParams};
 use meshgaze::provenance::InputFile;
 use meshgaze::saliency::map_file::read_map;
@@ -72,31 +72,7 @@ pub fn run(args: FeaturesArgs) -> Result<()> {
     let (mesh, _) = load_mesh(&args.mesh)?;
     let bars = Bars::new(args.quiet);
     let mut inputs = vec![InputFile::hash(&args.mesh)?];
-    let (values, source) = match (&args.saliency, args.method) {
-        (Some(f), _) => {
-            inputs.push(InputFile::hash(f)?);
-            (read_map(f, mesh.positions.len())?, f.display().to_string())
-        }
-        (None, Some(m)) => {
-            let viewing = Viewing {
-                rarity: RarityParams::default()
-                    .with_settings(&args.settings)
-                    .map_err(anyhow::Error::msg)?,
-                ..Viewing::builtin()
-            };
-            let out = compute_saliency_viewed(m, &mesh, &SmsParams::default(), &viewing, &bars)
-                .map_err(anyhow::Error::msg)?;
-            let settings = if args.settings.is_empty() {
-                String::new()
-            } else {
-                format!(" with --set {}", args.settings.join(" --set "))
-            };
-            (out.values, format!("method {}{settings}", m.name()))
-        }
-        (None, None) => {
-            bail!("give --saliency FILE or --method NAME (sms, mc, ms, si, sri, mr, gr, ...)")
-        }
-    };
+    let (values, source) = saliency_values(&args, &mesh, &bars, &mut inputs)?;
     let params = FeatureParams {
         separation: args.separation,
         unit: args.unit,
@@ -140,4 +116,39 @@ pub fn run(args: FeaturesArgs) -> Result<()> {
         eprintln!("wrote {}.csv and .json{extra}", prefix.display());
     }
     Ok(())
+}
+
+/// The map to pick feature points from: a --saliency file (hashed into `inputs`) or a
+/// --method computed here, and its description.
+fn saliency_values(
+    args: &FeaturesArgs,
+    mesh: &Mesh,
+    bars: &Bars,
+    inputs: &mut Vec<InputFile>,
+) -> Result<(Vec<f64>, String)> {
+    Ok(match (&args.saliency, args.method) {
+        (Some(f), _) => {
+            inputs.push(InputFile::hash(f)?);
+            (read_map(f, mesh.positions.len())?, f.display().to_string())
+        }
+        (None, Some(m)) => {
+            let viewing = Viewing {
+                rarity: RarityParams::default()
+                    .with_settings(&args.settings)
+                    .map_err(anyhow::Error::msg)?,
+                ..Viewing::builtin()
+            };
+            let out = compute_saliency_viewed(m, mesh, &SmsParams::default(), &viewing, bars)
+                .map_err(anyhow::Error::msg)?;
+            let settings = if args.settings.is_empty() {
+                String::new()
+            } else {
+                format!(" with --set {}", args.settings.join(" --set "))
+            };
+            (out.values, format!("method {}{settings}", m.name()))
+        }
+        (None, None) => {
+            bail!("give --saliency FILE or --method NAME (sms, mc, ms, si, sri, mr, gr, ...)")
+        }
+    })
 }

@@ -3,9 +3,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
-use meshgaze::gaze_model::features::up_and_front;
 use meshgaze::gaze_model::surface_points::read_gaze_points;
-use meshgaze::gaze_model::view_visibility::view_exposure;
 use meshgaze::gaze_model::GazeModel;
 use meshgaze::mesh::geometry::BoundingBox;
 use meshgaze::mesh::sampling::Sampling;
@@ -13,10 +11,10 @@ use meshgaze::mesh::{load_mesh, LoadReport, Mesh};
 use meshgaze::protocol::Protocol;
 use meshgaze::provenance::InputFile;
 use meshgaze::saliency::map_file::{compute_and_write_map, output_prefix, MapOutputs};
+use meshgaze::saliency::point_cloud::point_cloud_saliency;
 use meshgaze::saliency::sms::descriptors::{
     DescriptorNormalization, DescriptorParams, GridParams, QuadratureRule, ShellWeight,
 };
-use meshgaze::saliency::sms::gaussian_interpolation::min_max_normalize;
 use meshgaze::saliency::sms::gaussian_interpolation::InterpolationKind;
 use meshgaze::saliency::sms::truncated_power::PowerParams;
 use meshgaze::saliency::{FieldKind, Method, RarityParams, SmsParams, Viewing};
@@ -273,7 +271,7 @@ pub fn run(args: SaliencyArgs) -> Result<()> {
         bail!("{}: no such file", args.mesh.display());
     }
     if is_point_file(&args.mesh) {
-        return point_cloud_saliency(&args);
+        return write_point_cloud_saliency(&args);
     }
     let (mesh, load) = load_mesh(&args.mesh)?;
     let input = InputFile::hash(&args.mesh)
@@ -295,35 +293,14 @@ fn is_point_file(path: &Path) -> bool {
 
 /// The methods that need no connectivity, on a point cloud with normals: one value per input
 /// point, in input order (OUT.csv `point,saliency`, OUT.json with provenance).
-fn point_cloud_saliency(args: &SaliencyArgs) -> Result<()> {
+fn write_point_cloud_saliency(args: &SaliencyArgs) -> Result<()> {
     let points = read_gaze_points(&args.mesh)
         .map_err(anyhow::Error::msg)?
         .points;
     let viewing = args.viewing()?;
     let t = std::time::Instant::now();
-    let mut values = match args.method {
-        Method::Gaze => {
-            let model = viewing.gaze_model();
-            model
-                .predict(&points, &viewing.protocol)
-                .map_err(|e| anyhow::anyhow!("{}: {e}", args.mesh.display()))?
-        }
-        Method::Up => {
-            let (up, _) = up_and_front(&viewing.protocol);
-            points.positions.iter().map(|p| p.dot(up)).collect()
-        }
-        Method::Centre => {
-            view_exposure(&points, &viewing.protocol)
-                .map_err(|e| anyhow::anyhow!("{}: {e}", args.mesh.display()))?
-                .centre_closeness
-        }
-        other => bail!(
-            "{}: a point cloud (no triangles) can be given to --method gaze, up or centre; `{}` needs a mesh's surface",
-            args.mesh.display(),
-            other.name()
-        ),
-    };
-    min_max_normalize(&mut values);
+    let values = point_cloud_saliency(&points, args.method, &viewing)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.mesh.display()))?;
     let seconds = t.elapsed().as_secs_f64();
     let prefix = output_prefix(&args.output);
     if let Some(dir) = prefix.parent().filter(|d| !d.as_os_str().is_empty()) {

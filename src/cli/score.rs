@@ -109,19 +109,7 @@ pub fn run(args: ScoreArgs) -> Result<()> {
         }
         _ => bail!("give --mesh and --truth, or --dataset DIR (see meshgaze score --help)"),
     };
-    let (protocol, _, _) = Protocol::load_or_builtin(args.protocol.as_deref())?;
-    let model = match &args.model {
-        Some(path) => Some(GazeModel::load(path).map_err(anyhow::Error::msg)?),
-        None => None,
-    };
-    let rarity = RarityParams::default()
-        .with_settings(&args.settings)
-        .map_err(anyhow::Error::msg)?;
-    let viewing = Viewing {
-        protocol,
-        model,
-        rarity,
-    };
+    let viewing = viewing_of(&args)?;
     let request = ScoreRequest {
         pairs: &pairs,
         saliency_files: &args.saliency,
@@ -153,4 +141,21 @@ pub fn run(args: ScoreArgs) -> Result<()> {
         eprintln!("wrote {}, {}", out.csv.display(), out.json.display());
     }
     Ok(())
+}
+
+/// The protocol, learned model and method settings the maps are computed with.
+fn viewing_of(args: &ScoreArgs) -> Result<Viewing> {
+    let (protocol, _, _) = Protocol::load_or_builtin(args.protocol.as_deref())?;
+    let model = match &args.model {
+        Some(path) => Some(GazeModel::load(path).map_err(anyhow::Error::msg)?),
+        None => None,
+    };
+    let rarity = RarityParams::default()
+        .with_settings(&args.settings)
+        .map_err(anyhow::Error::msg)?;
+    Ok(Viewing {
+        protocol,
+        model,
+        rarity,
+    })
 }

@@ -5,6 +5,7 @@ use clap::Args;
 use serde::Serialize;
 
 use meshgaze::gaze::writers::write_samples_a;
+use meshgaze::mesh::Mesh;
 use meshgaze::progress::Progress;
 use meshgaze::provenance::InputFile;
 use meshgaze::saliency::{compute_saliency, Method, SmsParams};
@@ -151,47 +152,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         InputFile::hash(&stim.manifest_path)?,
         InputFile::hash(&stim.mesh_path)?,
     ];
-    let (model, model_name) = match (&args.model, &args.method, &args.saliency, &args.vertices) {
-        (_, Some(m), _, _) => {
-            let out = compute_saliency(*m, mesh, &SmsParams::default(), &bars)
-                .map_err(anyhow::Error::msg)?;
-            (
-                TargetModel::Saliency(out.values),
-                format!("method {}", m.name()),
-            )
-        }
-        (_, _, Some(file), _) => {
-            let GroundTruth::VertexMap(m) = load_ground_truth(file, mesh.positions.len(), 0.05)?
-            else {
-                bail!(
-                    "{}: expected a per-vertex map (vertex,value)",
-                    file.display()
-                );
-            };
-            inputs.push(InputFile::hash(file)?);
-            (
-                TargetModel::Saliency(m.values),
-                format!("map {}", file.display()),
-            )
-        }
-        (_, _, _, Some(v)) => {
-            if v.is_empty() {
-                bail!("--vertices: give at least one vertex index");
-            }
-            (
-                TargetModel::Vertices(v.clone()),
-                format!("{} listed vertices", v.len()),
-            )
-        }
-        (Some(BuiltinModel::Uniform), _, _, _) => (
-            TargetModel::Saliency(vec![1.0; mesh.positions.len()]),
-            "uniform".to_string(),
-        ),
-        _ => (
-            TargetModel::Saliency(extremity_map(mesh)),
-            "extremity (distance from the centroid)".to_string(),
-        ),
-    };
+    let (model, model_name) = target_model(&args, mesh, &bars, &mut inputs)?;
     let stimulus_name = args
         .stimulus_name
         .clone()
@@ -226,4 +187,58 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         );
     }
     Ok(())
+}
+
+/// What the observers look at, from --method, --saliency, --vertices or --model, and its
+/// description for simulate.json; a --saliency file joins the hashed inputs.
+fn target_model(
+    args: &SimulateArgs,
+    mesh: &Mesh,
+    bars: &Bars,
+    inputs: &mut Vec<InputFile>,
+) -> Result<(TargetModel, String)> {
+    Ok(
+        match (&args.model, &args.method, &args.saliency, &args.vertices) {
+            (_, Some(m), _, _) => {
+                let out = compute_saliency(*m, mesh, &SmsParams::default(), bars)
+                    .map_err(anyhow::Error::msg)?;
+                (
+                    TargetModel::Saliency(out.values),
+                    format!("method {}", m.name()),
+                )
+            }
+            (_, _, Some(file), _) => {
+                let GroundTruth::VertexMap(m) =
+                    load_ground_truth(file, mesh.positions.len(), 0.05)?
+                else {
+                    bail!(
+                        "{}: expected a per-vertex map (vertex,value)",
+                        file.display()
+                    );
+                };
+                inputs.push(InputFile::hash(file)?);
+                (
+                    TargetModel::Saliency(m.values),
+                    format!("map {}", file.display()),
+                )
+            }
+            (_, _, _, Some(v)) => {
+                if v.is_empty() {
+                    bail!("--vertices: give at least one vertex index");
+                }
+                (
+                    TargetModel::Vertices(v.clone()),
+                    format!("{} listed vertices", v.len()),
+                )
+            }
+            (Some(BuiltinModel::Uniform), _, _, _) => (
+                TargetModel::Saliency(vec![1.0; mesh.positions.len()]),
+                "uniform".to_string(),
+            ),
+            _ => (
+                TargetModel::Saliency(extremity_map(mesh)),
+                "extremity (distance from the centroid)".to_string(),
+            ),
+        },
+    )
 }

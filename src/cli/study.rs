@@ -1,4 +1,4 @@
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
@@ -82,74 +82,81 @@ pub fn run(args: StudyArgs) -> Result<()> {
             mesh_dir,
             recordings,
             output,
-        } => {
-            if output.exists() {
-                bail!("{} exists; not overwriting it", output.display());
-            }
-            std::fs::write(&output, template(&mesh_dir, &recordings))
-                .with_context(|| format!("cannot write {}", output.display()))?;
-            let study = Study::load(&output)?;
-            eprintln!(
-                "wrote {}: {} meshes, {} recordings so far; next: meshgaze study run {}",
-                output.display(),
-                study.meshes.len(),
-                study.recordings.len(),
-                output.display()
-            );
-            Ok(())
-        }
+        } => init(&mesh_dir, &recordings, &output),
         StudyAction::Run {
             study,
             shard,
             jobs,
             quiet,
-        } => {
-            let s = Study::load(&study)?;
-            let options = RunOptions {
-                shard: shard.as_deref().map(parse_shard).transpose()?,
-                jobs,
-            };
-            let bars = Bars::new(quiet);
-            let t = std::time::Instant::now();
-            let r = run_study(&s, &options, &bars)?;
-            if !quiet {
-                let count = |o: &str| r.steps.iter().filter(|x| x.outcome == o).count();
-                for x in r.steps.iter().filter(|x| x.outcome == "failed") {
-                    eprintln!("failed: {} {}: {}", x.mesh, x.step, x.detail);
-                }
-                for p in &r.problems {
-                    eprintln!("problem: {p}");
-                }
-                eprintln!(
-                    "study: {} meshes, {} recordings; steps {} done, {} up to date, {} skipped, {} failed; {:.1} s; log {}",
-                    r.meshes_in_shard.len(),
-                    r.recordings,
-                    count("done"),
-                    count("up-to-date"),
-                    count("skipped"),
-                    count("failed"),
-                    t.elapsed().as_secs_f64(),
-                    s.output.join("run.log").display()
-                );
-            }
-            Ok(())
-        }
-        StudyAction::Merge { study } => {
-            let s = Study::load(&study)?;
-            let n = merge_scores(&s)?;
-            // The shards' problems, as each shard's run logged them.
-            let problems: Vec<String> = std::fs::read_to_string(s.output.join("run.log"))
-                .unwrap_or_default()
-                .lines()
-                .filter_map(|l| l.strip_prefix("problem\t").map(str::to_string))
-                .collect();
-            let report = write_study_report(&s.output, &problems)?;
-            eprintln!(
-                "merged the scores of {n} meshes into {}; report: {}",
-                s.output.join("scores.csv").display(),
-                report.display()
-            );
-            Ok(())
-        }
+        } => run_shard(&study, shard.as_deref(), jobs, quiet),
+        StudyAction::Merge { study } => merge(&study),
     }
+}
+
+fn init(mesh_dir: &str, recordings: &str, output: &Path) -> Result<()> {
+    if output.exists() {
+        bail!("{} exists; not overwriting it", output.display());
+    }
+    std::fs::write(output, template(mesh_dir, recordings))
+        .with_context(|| format!("cannot write {}", output.display()))?;
+    let study = Study::load(output)?;
+    eprintln!(
+        "wrote {}: {} meshes, {} recordings so far; next: meshgaze study run {}",
+        output.display(),
+        study.meshes.len(),
+        study.recordings.len(),
+        output.display()
+    );
+    Ok(())
+}
+
+fn run_shard(study: &Path, shard: Option<&str>, jobs: usize, quiet: bool) -> Result<()> {
+    let s = Study::load(study)?;
+    let options = RunOptions {
+        shard: shard.map(parse_shard).transpose()?,
+        jobs,
+    };
+    let bars = Bars::new(quiet);
+    let t = std::time::Instant::now();
+    let r = run_study(&s, &options, &bars)?;
+    if quiet {
+        return Ok(());
+    }
+    let count = |o: &str| r.steps.iter().filter(|x| x.outcome == o).count();
+    for x in r.steps.iter().filter(|x| x.outcome == "failed") {
+        eprintln!("failed: {} {}: {}", x.mesh, x.step, x.detail);
+    }
+    for p in &r.problems {
+        eprintln!("problem: {p}");
+    }
+    eprintln!(
+        "study: {} meshes, {} recordings; steps {} done, {} up to date, {} skipped, {} failed; {:.1} s; log {}",
+        r.meshes_in_shard.len(),
+        r.recordings,
+        count("done"),
+        count("up-to-date"),
+        count("skipped"),
+        count("failed"),
+        t.elapsed().as_secs_f64(),
+        s.output.join("run.log").display()
+    );
+    Ok(())
+}
+
+fn merge(study: &Path) -> Result<()> {
+    let s = Study::load(study)?;
+    let n = merge_scores(&s)?;
+    // The shards' problems, as each shard's run logged them.
+    let problems: Vec<String> = std::fs::read_to_string(s.output.join("run.log"))
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| l.strip_prefix("problem\t").map(str::to_string))
+        .collect();
+    let report = write_study_report(&s.output, &problems)?;
+    eprintln!(
+        "merged the scores of {n} meshes into {}; report: {}",
+        s.output.join("scores.csv").display(),
+        report.display()
+    );
+    Ok(())
 }

@@ -3,6 +3,7 @@ pub mod lee_mesh_saliency;
 pub mod map_file;
 pub mod mean_curvature_saliency;
 pub mod method;
+pub mod point_cloud;
 pub mod rarity;
 pub mod sms;
 pub mod spectral_irregularity;
