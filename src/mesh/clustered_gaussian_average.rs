@@ -168,6 +168,190 @@ fn cell_of(p: DVec3, origin: DVec3, size: f64) -> [i64; 3] {
     [c.x as i64, c.y as i64, c.z as i64]
 }
 
+/// Clusters in fine cells of side h, sorted by the coarse cell (side g, a whole number of
+/// fine cells) holding them, so each coarse cell's clusters are contiguous.
+struct ClusterGrid {
+    clusters: Vec<Cluster>,
+    /// Occupied coarse cells in order; `starts[i]..starts[i + 1]` indexes `clusters`.
+    coarse_keys: Vec<[i64; 3]>,
+    coarse_starts: Vec<usize>,
+}
+
+/// The weighted points of one cluster, relative to `origin`.
+struct Members<'a> {
+    sources: &'a [DVec3],
+    weights: &'a [f64],
+    values: &'a [f64],
+    origin: DVec3,
+}
+
+impl Members<'_> {
+    /// The cluster of sources `js`: its centroid, mean and the moments of the second-order
+    /// expansion of the Gaussian about the centroid (s = 1/2σ²).
+    fn cluster(
+        &self,
+        js: impl Iterator<Item = usize> + Clone,
+        s: f64,
+        cutoff: f64,
+        h: f64,
+    ) -> Cluster {
+        let (sources, weights, values) = (self.sources, self.weights, self.values);
+        let (mut w, mut wp, mut f) = (0.0, DVec3::ZERO, 0.0);
+        for j in js.clone() {
+            w += weights[j];
+            wp += weights[j] * (sources[j] - self.origin);
+            f += weights[j] * values[j];
+        }
+        let (c, mean) = (wp / w, f / w);
+        let (mut wm, mut fgv, mut fd2) = ([0.0f64; 6], DVec3::ZERO, 0.0);
+        for j in js {
+            let d = sources[j] - self.origin - c;
+            let (a, af) = (weights[j], weights[j] * (values[j] - mean));
+            let dd = [
+                d.x * d.x,
+                d.y * d.y,
+                d.z * d.z,
+                d.x * d.y,
+                d.x * d.z,
+                d.y * d.z,
+            ];
+            for k in 0..6 {
+                wm[k] += a * dd[k];
+            }
+            fgv += af * d;
+            fd2 += af * d.length_squared();
+        }
+        let q = 2.0 * s * s;
+        Cluster {
+            c: [c.x as f32, c.y as f32, c.z as f32],
+            w0: (w - s * (wm[0] + wm[1] + wm[2])) as f32,
+            wq: [
+                (q * wm[0]) as f32,
+                (q * wm[1]) as f32,
+                (q * wm[2]) as f32,
+                (2.0 * q * wm[3]) as f32,
+                (2.0 * q * wm[4]) as f32,
+                (2.0 * q * wm[5]) as f32,
+            ],
+            mean: mean as f32,
+            fg: [
+                (-2.0 * s * fgv.x) as f32,
+                (-2.0 * s * fgv.y) as f32,
+                (-2.0 * s * fgv.z) as f32,
+            ],
+            f0: (-s * fd2) as f32,
+            ramp: {
+                // Points on a surface spread over two of the three axes.
+                let a = (1.5 * (wm[0] + wm[1] + wm[2]) / w).sqrt();
+                (1.0 / (4.0 * cutoff * a.max(1e-9 * h))) as f32
+            },
+        }
+    }
+}
+
+/// Targets are handled in cells that share one candidate list: the clusters within R plus
+/// the cell's half-diagonal of its centre. Small cells waste fewer candidates, but each
+/// cell costs a gather, so a cell should hold several targets: side R/4 unless sparse
+/// data leave fewer than 24 sources per occupied cell, then R/2, then R.
+fn target_cell_side(sources: &[DVec3], origin: DVec3, cutoff: f64) -> f64 {
+    [0.25, 0.5]
+        .into_iter()
+        .map(|f| f * cutoff)
+        .find(|&g| {
+            let mut keys: Vec<[i64; 3]> =
+                sources.par_iter().map(|p| cell_of(*p, origin, g)).collect();
+            keys.par_sort_unstable();
+            keys.dedup();
+            sources.len() >= 24 * keys.len()
+        })
+        .unwrap_or(cutoff)
+}
+
+impl ClusterGrid {
+    fn new(members: &Members, h: f64, fine_per_coarse: i64, s: f64, cutoff: f64) -> ClusterGrid {
+        let mut keyed: Vec<([i64; 3], [i64; 3], usize)> = members
+            .sources
+            .par_iter()
+            .enumerate()
+            .map(|(j, p)| {
+                let fine = cell_of(*p, members.origin, h);
+                let coarse = fine.map(|f| f.div_euclid(fine_per_coarse));
+                (coarse, fine, j)
+            })
+            .collect();
+        keyed.par_sort_unstable();
+        let mut grid = ClusterGrid {
+            clusters: Vec::new(),
+            coarse_keys: Vec::new(),
+            coarse_starts: Vec::new(),
+        };
+        let mut i = 0;
+        while i < keyed.len() {
+            let mut end = i + 1;
+            while end < keyed.len() && keyed[end].0 == keyed[i].0 && keyed[end].1 == keyed[i].1 {
+                end += 1;
+            }
+            if grid.coarse_keys.last() != Some(&keyed[i].0) {
+                grid.coarse_keys.push(keyed[i].0);
+                grid.coarse_starts.push(grid.clusters.len());
+            }
+            let js = keyed[i..end].iter().map(|&(_, _, j)| j);
+            grid.clusters.push(members.cluster(js, s, cutoff, h));
+            i = end;
+        }
+        grid.coarse_starts.push(grid.clusters.len());
+        grid
+    }
+
+    /// Into `list`: the clusters of the coarse cells within `span` of `key` whose centroid
+    /// is within `reach` of `centre`.
+    fn gather(&self, key: [i64; 3], span: i64, centre: DVec3, reach: f64, list: &mut Vec<Cluster>) {
+        list.clear();
+        for dx in -span..=span {
+            for dy in -span..=span {
+                let first = [key[0] + dx, key[1] + dy, key[2] - span];
+                let last = [key[0] + dx, key[1] + dy, key[2] + span];
+                let from = self.coarse_keys.partition_point(|k| *k < first);
+                let to = self.coarse_keys.partition_point(|k| *k <= last);
+                for cell in from..to {
+                    for k in &self.clusters[self.coarse_starts[cell]..self.coarse_starts[cell + 1]]
+                    {
+                        let c = DVec3::new(k.c[0] as f64, k.c[1] as f64, k.c[2] as f64);
+                        if c.distance_squared(centre) <= reach * reach {
+                            list.push(*k);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Targets sorted by the cell of side `g` holding them, and the (start, end) of each cell's run.
+fn targets_by_cell(
+    targets: &[DVec3],
+    origin: DVec3,
+    g: f64,
+) -> (Vec<([i64; 3], usize)>, Vec<(usize, usize)>) {
+    let mut order: Vec<([i64; 3], usize)> = targets
+        .par_iter()
+        .enumerate()
+        .map(|(t, p)| (cell_of(*p, origin, g), t))
+        .collect();
+    order.par_sort_unstable();
+    let mut groups: Vec<(usize, usize)> = Vec::new();
+    let mut a = 0;
+    while a < order.len() {
+        let mut b = a + 1;
+        while b < order.len() && order[b].0 == order[a].0 {
+            b += 1;
+        }
+        groups.push((a, b));
+        a = b;
+    }
+    (order, groups)
+}
+
 /// A(v) at every target (`None` where no cluster lies within `cutoff`). `weights` must be
 /// positive; sources with weight 0 should be left out by the caller.
 pub fn clustered_gaussian_average(
@@ -198,125 +382,19 @@ pub fn clustered_gaussian_average(
     }
     let origin = 0.5 * (lo + hi);
     let h = sigma / cells_per_sigma;
-    // Targets are handled in cells that share one candidate list: the clusters within R plus
-    // the cell's half-diagonal of its centre. Small cells waste fewer candidates, but each
-    // cell costs a gather, so a cell should hold several targets: side R/4 unless sparse
-    // data leave fewer than 24 sources per occupied cell, then R/2, then R.
-    let g = [0.25, 0.5]
-        .into_iter()
-        .map(|f| f * cutoff)
-        .find(|&g| {
-            let mut keys: Vec<[i64; 3]> =
-                sources.par_iter().map(|p| cell_of(*p, origin, g)).collect();
-            keys.par_sort_unstable();
-            keys.dedup();
-            sources.len() >= 24 * keys.len()
-        })
-        .unwrap_or(cutoff);
-    let fine_per_coarse = (g / h).ceil().max(1.0) as i64;
+    let fine_per_coarse = (target_cell_side(sources, origin, cutoff) / h)
+        .ceil()
+        .max(1.0) as i64;
     let g = h * fine_per_coarse as f64;
-
-    // Clusters: sources sorted by (coarse cell, fine cell), so each coarse cell's clusters
-    // are contiguous.
-    let mut keyed: Vec<([i64; 3], [i64; 3], usize)> = sources
-        .par_iter()
-        .enumerate()
-        .map(|(j, p)| {
-            let fine = cell_of(*p, origin, h);
-            let coarse = fine.map(|f| f.div_euclid(fine_per_coarse));
-            (coarse, fine, j)
-        })
-        .collect();
-    keyed.par_sort_unstable();
     let s = 1.0 / (2.0 * sigma * sigma);
-    let mut clusters: Vec<Cluster> = Vec::new();
-    let mut coarse_keys: Vec<[i64; 3]> = Vec::new();
-    let mut coarse_starts: Vec<usize> = Vec::new();
-    let mut i = 0;
-    while i < keyed.len() {
-        let mut end = i + 1;
-        while end < keyed.len() && keyed[end].0 == keyed[i].0 && keyed[end].1 == keyed[i].1 {
-            end += 1;
-        }
-        if coarse_keys.last() != Some(&keyed[i].0) {
-            coarse_keys.push(keyed[i].0);
-            coarse_starts.push(clusters.len());
-        }
-        let members = &keyed[i..end];
-        let (mut w, mut wp, mut f) = (0.0, DVec3::ZERO, 0.0);
-        for &(_, _, j) in members {
-            w += weights[j];
-            wp += weights[j] * (sources[j] - origin);
-            f += weights[j] * values[j];
-        }
-        let (c, mean) = (wp / w, f / w);
-        let (mut wm, mut fgv, mut fd2) = ([0.0f64; 6], DVec3::ZERO, 0.0);
-        for &(_, _, j) in members {
-            let d = sources[j] - origin - c;
-            let (a, af) = (weights[j], weights[j] * (values[j] - mean));
-            let dd = [
-                d.x * d.x,
-                d.y * d.y,
-                d.z * d.z,
-                d.x * d.y,
-                d.x * d.z,
-                d.y * d.z,
-            ];
-            for k in 0..6 {
-                wm[k] += a * dd[k];
-            }
-            fgv += af * d;
-            fd2 += af * d.length_squared();
-        }
-        let quad = |m: [f64; 6]| {
-            let q = 2.0 * s * s;
-            [
-                (q * m[0]) as f32,
-                (q * m[1]) as f32,
-                (q * m[2]) as f32,
-                (2.0 * q * m[3]) as f32,
-                (2.0 * q * m[4]) as f32,
-                (2.0 * q * m[5]) as f32,
-            ]
-        };
-        clusters.push(Cluster {
-            c: [c.x as f32, c.y as f32, c.z as f32],
-            w0: (w - s * (wm[0] + wm[1] + wm[2])) as f32,
-            wq: quad(wm),
-            mean: mean as f32,
-            fg: [
-                (-2.0 * s * fgv.x) as f32,
-                (-2.0 * s * fgv.y) as f32,
-                (-2.0 * s * fgv.z) as f32,
-            ],
-            f0: (-s * fd2) as f32,
-            ramp: {
-                // Points on a surface spread over two of the three axes.
-                let a = (1.5 * (wm[0] + wm[1] + wm[2]) / w).sqrt();
-                (1.0 / (4.0 * cutoff * a.max(1e-9 * h))) as f32
-            },
-        });
-        i = end;
-    }
-    coarse_starts.push(clusters.len());
-
-    // Targets grouped by coarse cell.
-    let mut target_order: Vec<([i64; 3], usize)> = targets
-        .par_iter()
-        .enumerate()
-        .map(|(t, p)| (cell_of(*p, origin, g), t))
-        .collect();
-    target_order.par_sort_unstable();
-    let mut groups: Vec<(usize, usize)> = Vec::new();
-    let mut a = 0;
-    while a < target_order.len() {
-        let mut b = a + 1;
-        while b < target_order.len() && target_order[b].0 == target_order[a].0 {
-            b += 1;
-        }
-        groups.push((a, b));
-        a = b;
-    }
+    let members = Members {
+        sources,
+        weights,
+        values,
+        origin,
+    };
+    let grid = ClusterGrid::new(&members, h, fine_per_coarse, s, cutoff);
+    let (target_order, groups) = targets_by_cell(targets, origin, g);
     let reach = cutoff + 0.5 * 3f64.sqrt() * (g + 2.0 * h);
     let span = (reach / g + 0.5).ceil() as i64;
     let (sf, r2_max) = (s as f32, (cutoff * cutoff) as f32);
@@ -331,23 +409,7 @@ pub fn clustered_gaussian_average(
                     (key[1] as f64 + 0.5) * g,
                     (key[2] as f64 + 0.5) * g,
                 );
-                list.clear();
-                for dx in -span..=span {
-                    for dy in -span..=span {
-                        let first = [key[0] + dx, key[1] + dy, key[2] - span];
-                        let last = [key[0] + dx, key[1] + dy, key[2] + span];
-                        let from = coarse_keys.partition_point(|k| *k < first);
-                        let to = coarse_keys.partition_point(|k| *k <= last);
-                        for cell in from..to {
-                            for k in &clusters[coarse_starts[cell]..coarse_starts[cell + 1]] {
-                                let c = DVec3::new(k.c[0] as f64, k.c[1] as f64, k.c[2] as f64);
-                                if c.distance_squared(centre) <= reach * reach {
-                                    list.push(*k);
-                                }
-                            }
-                        }
-                    }
-                }
+                grid.gather(key, span, centre, reach, list);
                 cands.push_all(list);
                 target_order[a..b]
                     .iter()
