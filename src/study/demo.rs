@@ -61,14 +61,7 @@ pub fn run_demo(
     let t_all = Instant::now();
     let out = inputs.output;
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let mut steps: Vec<StepTiming> = Vec::new();
-    let mut step = |name: &str, t: Instant, outputs: &str| {
-        steps.push(StepTiming {
-            name: name.to_string(),
-            seconds: t.elapsed().as_secs_f64(),
-            outputs: outputs.to_string(),
-        })
-    };
+    let mut steps = StepLog(Vec::new());
     let mesh_path = out.join("bunny.ply");
     std::fs::write(&mesh_path, inputs.mesh_bytes)
         .with_context(|| format!("cannot write {}", s(&mesh_path)))?;
@@ -77,94 +70,24 @@ pub fn run_demo(
         .with_context(|| format!("cannot write {}", s(&protocol_path)))?;
     let (mesh, load) = parse_mesh_bytes(inputs.mesh_bytes, &mesh_path, MeshFormat::Ply)?;
     let protocol = Protocol::from_toml(inputs.protocol_toml, "hu2020.toml")?;
-    let bars = progress;
-
-    // 1. Stimulus.
-    say("1/7 rendering the 48 s stimulus video (12 viewpoints, 3 s holds, 1 s moves)");
-    let t = Instant::now();
-    let stim_dir = out.join("stimulus");
-    render_stimulus(
-        &mesh_path,
-        &mesh,
-        &protocol,
-        inputs.protocol_toml,
-        &s(&protocol_path),
-        &stim_dir,
-        &StimulusOptions {
-            frames: FrameImages::Keyframes,
-            id_buffer: false,
-            verify: false,
-        },
-        bars,
-    )
-    .map_err(anyhow::Error::msg)?;
-    step(
-        "stimulus",
-        t,
-        "stimulus/stimulus.mp4, timeline.csv, manifest.json, frames/",
-    );
-
-    // 2. Virtual observers.
-    say(&format!(
-        "2/7 simulating {} virtual observers (SMI RED250 exports)",
-        inputs.subjects
-    ));
-    let t = Instant::now();
-    let rec_dir = out.join("recordings");
-    let stim = load_stimulus(&stim_dir, None).map_err(anyhow::Error::msg)?;
-    simulate_step(&stim, &rec_dir, inputs.subjects, inputs.seed)?;
-    step(
-        "simulate",
-        t,
-        "recordings/sNN_samples.txt (A), sNN_events.txt (C1), targets.csv",
-    );
-
-    // 3. Ingest.
-    say("3/7 ingesting the recordings: I-DT fixations, drop 2 first / 2 last, keep 15 longest");
-    let t = Instant::now();
-    let ing_dir = out.join("ingest");
-    ingest_step(&protocol, &rec_dir, &ing_dir, inputs.subjects)?;
-    step(
-        "ingest",
-        t,
-        "ingest/fixations.csv, quality.csv, ingest.json",
-    );
-
-    // 4. Projection.
-    say("4/7 projecting fixations onto the mesh (BVH, watertight rays, nearest vertex)");
-    let t = Instant::now();
-    let proj_dir = out.join("projection");
-    let options = ProjectOptions {
-        targets: Some(rec_dir.join("targets.csv")),
-        self_check: true,
-        ..ProjectOptions::default()
+    let stage = DemoStage {
+        inputs,
+        mesh: &mesh,
+        mesh_path: &mesh_path,
+        protocol: &protocol,
+        protocol_path: &protocol_path,
+        progress,
+        say,
     };
-    let run = project_files(&stim, &[ing_dir.join("fixations.csv")], &options, &Silent)?;
-    write_projection(&proj_dir, &run)?;
-    step("project", t, "projection/projected.csv, project.json");
-    let pj: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(proj_dir.join("project.json"))?)?;
-    say(&projection_summary(&pj));
-
-    // 5. Ground truth.
-    say("5/7 building the ground truth and the split-half human ceiling");
-    let t = Instant::now();
-    let truth_dir = out.join("truth");
-    let projections = read_projections(&stim, &[proj_dir.join("projected.csv")])?;
-    let truth = build_truth(&stim, projections, &TruthParams::default(), bars)?;
-    write_truth(&truth_dir, &stim, &truth)?;
-    step(
-        "truth",
-        t,
-        "truth/truth.csv, density.csv, truth.ply, human.csv, truth.json",
-    );
+    let (stim, rec_dir, ing_dir) = stage.record(&mut steps)?;
+    let truth = stage.truth_of(&stim, &rec_dir, &ing_dir, &mut steps)?;
 
     // 6. Saliency.
     say("6/7 computing saliency: SMS (the paper's method) and its six competitors MC, MS, SI, SRI, MR, GR");
     let t = Instant::now();
     let sal_dir = out.join("saliency");
     let (maps, seconds, ginis) = saliency_step(&mesh_path, &mesh, &load, &sal_dir)?;
-    step(
+    steps.done(
         "saliency",
         t,
         "saliency/bunny_{sms,mc,ms,si,sri,mr,gr}.csv, .ply, .json",
@@ -176,8 +99,8 @@ pub fn run_demo(
     let seen = crate::stimulus::hold_views::hold_view_exposure(&mesh, &protocol)
         .map_err(anyhow::Error::msg)?
         .seen();
-    let (score, plots) = score_step(&mesh, &seen, &truth, &maps, &out.join("score"), bars)?;
-    step(
+    let (score, plots) = score_step(&mesh, &seen, &truth, &maps, &out.join("score"), progress)?;
+    steps.done(
         "score",
         t,
         "score/score.csv, score.json, AUC and Lorenz plots",
@@ -193,7 +116,7 @@ pub fn run_demo(
             method_seconds: &seconds,
             score: &score,
             plots: &plots,
-            steps: &steps,
+            steps: &steps.0,
             total_seconds: t_all.elapsed().as_secs_f64(),
         },
     )?;
@@ -204,6 +127,124 @@ pub fn run_demo(
         truth,
         seconds: t_all.elapsed().as_secs_f64(),
     })
+}
+
+/// Each step's seconds and outputs, for the report.
+struct StepLog(Vec<StepTiming>);
+
+impl StepLog {
+    fn done(&mut self, name: &str, started: Instant, outputs: &str) {
+        self.0.push(StepTiming {
+            name: name.to_string(),
+            seconds: started.elapsed().as_secs_f64(),
+            outputs: outputs.to_string(),
+        })
+    }
+}
+
+/// What every step of the demo reads.
+struct DemoStage<'a> {
+    inputs: &'a DemoInputs<'a>,
+    mesh: &'a Mesh,
+    mesh_path: &'a Path,
+    protocol: &'a Protocol,
+    protocol_path: &'a Path,
+    progress: &'a dyn Progress,
+    say: &'a dyn Fn(&str),
+}
+
+impl DemoStage<'_> {
+    /// Steps 1–3: the stimulus, the virtual observers' recordings, and their fixations.
+    /// Returns the stimulus and the recordings' and ingest's folders.
+    fn record(&self, steps: &mut StepLog) -> Result<(LoadedStimulus, PathBuf, PathBuf)> {
+        let (inputs, say, out) = (self.inputs, self.say, self.inputs.output);
+        say("1/7 rendering the 48 s stimulus video (12 viewpoints, 3 s holds, 1 s moves)");
+        let t = Instant::now();
+        let stim_dir = out.join("stimulus");
+        render_stimulus(
+            self.mesh_path,
+            self.mesh,
+            self.protocol,
+            inputs.protocol_toml,
+            &s(self.protocol_path),
+            &stim_dir,
+            &StimulusOptions {
+                frames: FrameImages::Keyframes,
+                id_buffer: false,
+                verify: false,
+            },
+            self.progress,
+        )
+        .map_err(anyhow::Error::msg)?;
+        steps.done(
+            "stimulus",
+            t,
+            "stimulus/stimulus.mp4, timeline.csv, manifest.json, frames/",
+        );
+
+        say(&format!(
+            "2/7 simulating {} virtual observers (SMI RED250 exports)",
+            inputs.subjects
+        ));
+        let t = Instant::now();
+        let rec_dir = out.join("recordings");
+        let stim = load_stimulus(&stim_dir, None).map_err(anyhow::Error::msg)?;
+        simulate_step(&stim, &rec_dir, inputs.subjects, inputs.seed)?;
+        steps.done(
+            "simulate",
+            t,
+            "recordings/sNN_samples.txt (A), sNN_events.txt (C1), targets.csv",
+        );
+
+        say("3/7 ingesting the recordings: I-DT fixations, drop 2 first / 2 last, keep 15 longest");
+        let t = Instant::now();
+        let ing_dir = out.join("ingest");
+        ingest_step(self.protocol, &rec_dir, &ing_dir, inputs.subjects)?;
+        steps.done(
+            "ingest",
+            t,
+            "ingest/fixations.csv, quality.csv, ingest.json",
+        );
+        Ok((stim, rec_dir, ing_dir))
+    }
+
+    /// Steps 4–5: the fixations projected onto the mesh, and the ground truth built from them.
+    fn truth_of(
+        &self,
+        stim: &LoadedStimulus,
+        rec_dir: &Path,
+        ing_dir: &Path,
+        steps: &mut StepLog,
+    ) -> Result<TruthResult> {
+        let (say, out) = (self.say, self.inputs.output);
+        say("4/7 projecting fixations onto the mesh (BVH, watertight rays, nearest vertex)");
+        let t = Instant::now();
+        let proj_dir = out.join("projection");
+        let options = ProjectOptions {
+            targets: Some(rec_dir.join("targets.csv")),
+            self_check: true,
+            ..ProjectOptions::default()
+        };
+        let run = project_files(stim, &[ing_dir.join("fixations.csv")], &options, &Silent)?;
+        write_projection(&proj_dir, &run)?;
+        steps.done("project", t, "projection/projected.csv, project.json");
+        let pj: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(proj_dir.join("project.json"))?)?;
+        say(&projection_summary(&pj));
+
+        say("5/7 building the ground truth and the split-half human ceiling");
+        let t = Instant::now();
+        let truth_dir = out.join("truth");
+        let projections = read_projections(stim, &[proj_dir.join("projected.csv")])?;
+        let truth = build_truth(stim, projections, &TruthParams::default(), self.progress)?;
+        write_truth(&truth_dir, stim, &truth)?;
+        steps.done(
+            "truth",
+            t,
+            "truth/truth.csv, density.csv, truth.ply, human.csv, truth.json",
+        );
+        Ok(truth)
+    }
 }
 
 /// Step 2: virtual observers drawn by the extremity model, written as SMI exports.
