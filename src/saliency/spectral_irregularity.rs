@@ -78,16 +78,7 @@ pub fn spectral_irregularity(
     if n < 3 || small.triangles.is_empty() {
         return Err("the simplified mesh has no triangle left".into());
     }
-    // Edge weights 1/‖e‖² (each undirected edge once).
-    let mut edges: Vec<(usize, usize)> = Vec::new();
-    for t in &small.triangles {
-        for k in 0..3 {
-            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
-            edges.push((a.min(b), a.max(b)));
-        }
-    }
-    edges.sort_unstable();
-    edges.dedup();
+    let edges = unique_edges(&small);
     let weight = |a: usize, b: usize| {
         let d2 = (small.positions[a] - small.positions[b]).length_squared();
         if d2 > 0.0 {
@@ -96,8 +87,61 @@ pub fn spectral_irregularity(
             0.0
         }
     };
-    let mut laplacian = Mat::<f64>::zeros(n, n);
+    let (lambda, basis) = laplacian_eigenpairs(n, &edges, &weight)?;
+    let (e, zero) = exp_log_spectrum_irregularity(&lambda, params.box_width);
+    // saliency_i = Σ_{j∈N(i)} W_ij Σ_k B_ik e_k B_jk
+    let mut saliency_small = vec![0.0; n];
     for &(a, b) in &edges {
+        let s: f64 = (0..n).map(|k| basis[(a, k)] * e[k] * basis[(b, k)]).sum();
+        let v = weight(a, b) * s;
+        saliency_small[a] += v;
+        saliency_small[b] += v;
+    }
+    let largest = saliency_small.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let floor = 1e-12 * largest.max(f64::MIN_POSITIVE);
+    for v in saliency_small.iter_mut() {
+        *v = v.abs().max(floor).ln();
+    }
+    // Back to every input vertex: the value of the nearest simplified vertex.
+    let mut values =
+        transfer_by_nearest_vertex(&small.positions, &saliency_small, &normalized.positions);
+    if params.smoothing_sigma > 0.0 {
+        values = smooth(&normalized, values, params);
+    }
+    min_max_normalize(&mut values);
+    Ok((
+        values,
+        SpectralReport {
+            simplified_vertices: n,
+            simplified_triangles: small.triangles.len(),
+            zero_eigenvalues: zero,
+        },
+    ))
+}
+
+/// Each undirected edge of the triangles once, (low, high), sorted.
+fn unique_edges(mesh: &Mesh) -> Vec<(usize, usize)> {
+    let mut edges: Vec<(usize, usize)> = Vec::new();
+    for t in &mesh.triangles {
+        for k in 0..3 {
+            let (a, b) = (t[k] as usize, t[(k + 1) % 3] as usize);
+            edges.push((a.min(b), a.max(b)));
+        }
+    }
+    edges.sort_unstable();
+    edges.dedup();
+    edges
+}
+
+/// Eigenvalues (ascending) and eigenvectors (columns) of the graph Laplacian with edge
+/// weights `weight` (here 1/‖e‖²), dense.
+fn laplacian_eigenpairs(
+    n: usize,
+    edges: &[(usize, usize)],
+    weight: &dyn Fn(usize, usize) -> f64,
+) -> Result<(Vec<f64>, Mat<f64>), String> {
+    let mut laplacian = Mat::<f64>::zeros(n, n);
+    for &(a, b) in edges {
         let w = weight(a, b);
         laplacian[(a, b)] -= w;
         laplacian[(b, a)] -= w;
@@ -127,6 +171,14 @@ pub fn spectral_irregularity(
     )
     .map_err(|e| format!("the eigendecomposition failed: {e:?}"))?;
     let lambda: Vec<f64> = (0..n).map(|i| eigenvalues.column_vector()[i]).collect();
+    Ok((lambda, basis))
+}
+
+/// exp of each eigenvalue's spectral irregularity: |log λ_i − its box mean over
+/// `box_width` neighbours in the spectrum|; (near-)zero eigenvalues count as log λ = 0.
+/// Returns the values and how many eigenvalues were zero.
+fn exp_log_spectrum_irregularity(lambda: &[f64], box_width: usize) -> (Vec<f64>, usize) {
+    let n = lambda.len();
     let lambda_max = lambda.iter().cloned().fold(0.0, f64::max);
     let mut zero = 0;
     let log_spectrum: Vec<f64> = lambda
@@ -140,73 +192,49 @@ pub fn spectral_irregularity(
             }
         })
         .collect();
-    let half = params.box_width / 2;
-    let irregularity: Vec<f64> = (0..n)
+    let half = box_width / 2;
+    let e = (0..n)
         .map(|i| {
-            let mean = (0..params.box_width)
+            let mean = (0..box_width)
                 .map(|k| log_spectrum[(i + k).saturating_sub(half).min(n - 1)])
                 .sum::<f64>()
-                / params.box_width as f64;
-            (log_spectrum[i] - mean).abs()
+                / box_width as f64;
+            (log_spectrum[i] - mean).abs().exp()
         })
         .collect();
-    let e: Vec<f64> = irregularity.iter().map(|r| r.exp()).collect();
-    // saliency_i = Σ_{j∈N(i)} W_ij Σ_k B_ik e_k B_jk
-    let mut saliency_small = vec![0.0; n];
-    for &(a, b) in &edges {
-        let s: f64 = (0..n).map(|k| basis[(a, k)] * e[k] * basis[(b, k)]).sum();
-        let v = weight(a, b) * s;
-        saliency_small[a] += v;
-        saliency_small[b] += v;
+    (e, zero)
+}
+
+/// The map blurred over the (normalized) surface at `smoothing_sigma`, exactly or clustered.
+fn smooth(normalized: &Mesh, values: Vec<f64>, params: &SpectralParams) -> Vec<f64> {
+    let sigma = params.smoothing_sigma;
+    match params.smoothing_sum {
+        GaussianSum::Exact => {
+            let blur = SurfaceBlur::new(normalized.positions.clone(), vertex_areas(normalized));
+            blur.blur(&[&values], sigma).remove(0)
+        }
+        GaussianSum::Clustered { cells_per_sigma } => {
+            // The same sum as SurfaceBlur's: area-weighted, cut at 3σ, a vertex
+            // without area-carrying neighbours keeps its value.
+            let areas = vertex_areas(normalized);
+            let carrying: Vec<usize> = (0..areas.len()).filter(|&i| areas[i] > 0.0).collect();
+            let pick = |x: &[f64]| carrying.iter().map(|&i| x[i]).collect::<Vec<f64>>();
+            let points: Vec<_> = carrying.iter().map(|&i| normalized.positions[i]).collect();
+            clustered_gaussian_average(
+                &points,
+                &pick(&areas),
+                &pick(&values),
+                &normalized.positions,
+                sigma,
+                3.0 * sigma,
+                cells_per_sigma,
+            )
+            .into_iter()
+            .zip(&values)
+            .map(|(a, own)| a.unwrap_or(*own))
+            .collect()
+        }
     }
-    let largest = saliency_small.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-    let floor = 1e-12 * largest.max(f64::MIN_POSITIVE);
-    for v in saliency_small.iter_mut() {
-        *v = v.abs().max(floor).ln();
-    }
-    // Back to every input vertex: the value of the nearest simplified vertex.
-    let mut values =
-        transfer_by_nearest_vertex(&small.positions, &saliency_small, &normalized.positions);
-    if params.smoothing_sigma > 0.0 {
-        let sigma = params.smoothing_sigma;
-        values = match params.smoothing_sum {
-            GaussianSum::Exact => {
-                let blur =
-                    SurfaceBlur::new(normalized.positions.clone(), vertex_areas(&normalized));
-                blur.blur(&[&values], sigma).remove(0)
-            }
-            GaussianSum::Clustered { cells_per_sigma } => {
-                // The same sum as SurfaceBlur's: area-weighted, cut at 3σ, a vertex
-                // without area-carrying neighbours keeps its value.
-                let areas = vertex_areas(&normalized);
-                let carrying: Vec<usize> = (0..areas.len()).filter(|&i| areas[i] > 0.0).collect();
-                let pick = |x: &[f64]| carrying.iter().map(|&i| x[i]).collect::<Vec<f64>>();
-                let points: Vec<_> = carrying.iter().map(|&i| normalized.positions[i]).collect();
-                clustered_gaussian_average(
-                    &points,
-                    &pick(&areas),
-                    &pick(&values),
-                    &normalized.positions,
-                    sigma,
-                    3.0 * sigma,
-                    cells_per_sigma,
-                )
-                .into_iter()
-                .zip(&values)
-                .map(|(a, own)| a.unwrap_or(*own))
-                .collect()
-            }
-        };
-    }
-    min_max_normalize(&mut values);
-    Ok((
-        values,
-        SpectralReport {
-            simplified_vertices: n,
-            simplified_triangles: small.triangles.len(),
-            zero_eigenvalues: zero,
-        },
-    ))
 }
 
 #[cfg(test)]

@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 use super::global_rarity::{distance, patch_descriptors};
 use super::working_copy::{RawSpread, WorkingCopy, WorkingCopyReport};
 use super::zernike_height_map::zernike_descriptors;
-use crate::mesh::over_segmentation::over_segment;
+use crate::mesh::over_segmentation::{over_segment, Patches};
 use crate::mesh::Mesh;
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -94,12 +94,52 @@ pub fn manifold_ranking_saliency(
     let (desc, area) = patch_descriptors(&work, &patches, &z);
     let p = patches.len();
 
-    // Centre-surround distinctness over the rings around each patch.
-    let distinctness: Vec<f64> = (0..p)
+    let distinctness = surround_distinctness(&patches, &desc, &area, params.surround_rings);
+    let queries = ((params.background_fraction * p as f64).round() as usize).clamp(1, p);
+    let mut order: Vec<usize> = (0..p).collect();
+    order.sort_by(|&a, &b| distinctness[a].total_cmp(&distinctness[b]).then(a.cmp(&b)));
+    let mut y = vec![0.0; p];
+    for &q in &order[..queries] {
+        y[q] = 1.0;
+    }
+    let weights = descriptor_graph(&desc, params.neighbours, params.sigma);
+    let (ranking, iterations, residual) = rank(&weights, &y, params.alpha);
+    let max_r = ranking.iter().cloned().fold(0.0, f64::max);
+    let patch_saliency: Vec<f64> = ranking
+        .iter()
+        .map(|r| if max_r > 0.0 { 1.0 - r / max_r } else { 0.0 })
+        .collect();
+
+    let values: Vec<f64> = (0..work.len())
+        .map(|v| patch_saliency[patches.label[v] as usize])
+        .collect();
+    let values = smooth_on_graph(&work, values, params.smoothing_iterations);
+    Ok((
+        work.carry_back(&values),
+        MrReport {
+            working_copy: work.report(),
+            raw: RawSpread::of(&values, &work.areas),
+            patches: p,
+            background_queries: queries,
+            ranking_iterations: iterations,
+            ranking_residual: residual,
+        },
+    ))
+}
+
+/// Centre-surround distinctness of each patch: the area-weighted mean descriptor distance
+/// to the patches within `rings` adjacency rings of it.
+fn surround_distinctness(
+    patches: &Patches,
+    desc: &[Vec<f64>],
+    area: &[f64],
+    rings: usize,
+) -> Vec<f64> {
+    (0..desc.len())
         .map(|a| {
             let mut seen = vec![a];
             let mut frontier = vec![a];
-            for _ in 0..params.surround_rings {
+            for _ in 0..rings {
                 let mut next = Vec::new();
                 for &q in &frontier {
                     for &r in &patches.adjacency[q] {
@@ -122,17 +162,14 @@ pub fn manifold_ranking_saliency(
                 0.0
             }
         })
-        .collect();
-    let queries = ((params.background_fraction * p as f64).round() as usize).clamp(1, p);
-    let mut order: Vec<usize> = (0..p).collect();
-    order.sort_by(|&a, &b| distinctness[a].total_cmp(&distinctness[b]).then(a.cmp(&b)));
-    let mut y = vec![0.0; p];
-    for &q in &order[..queries] {
-        y[q] = 1.0;
-    }
+        .collect()
+}
 
-    // Symmetric k-nearest-neighbour graph in descriptor space.
-    let k = params.neighbours.min(p.saturating_sub(1));
+/// The symmetric k-nearest-neighbour graph of the patches in descriptor space, weights
+/// exp(−d²/σ²) (σ² the mean squared edge length when `sigma` is 0): adjacency lists.
+fn descriptor_graph(desc: &[Vec<f64>], neighbours: usize, sigma: f64) -> Vec<Vec<(usize, f64)>> {
+    let p = desc.len();
+    let k = neighbours.min(p.saturating_sub(1));
     let nearest: Vec<Vec<(usize, f64)>> = (0..p)
         .into_par_iter()
         .map(|a| {
@@ -152,8 +189,8 @@ pub fn manifold_ranking_saliency(
         .collect();
     edges.sort_by_key(|e| (e.0, e.1));
     edges.dedup_by(|x, y| x.0 == y.0 && x.1 == y.1);
-    let sigma2 = if params.sigma > 0.0 {
-        params.sigma * params.sigma
+    let sigma2 = if sigma > 0.0 {
+        sigma * sigma
     } else {
         edges.iter().map(|e| e.2).sum::<f64>() / edges.len().max(1) as f64
     };
@@ -167,17 +204,12 @@ pub fn manifold_ranking_saliency(
         weights[a].push((b, w));
         weights[b].push((a, w));
     }
-    let (ranking, iterations, residual) = rank(&weights, &y, params.alpha);
-    let max_r = ranking.iter().cloned().fold(0.0, f64::max);
-    let patch_saliency: Vec<f64> = ranking
-        .iter()
-        .map(|r| if max_r > 0.0 { 1.0 - r / max_r } else { 0.0 })
-        .collect();
+    weights
+}
 
-    let mut values: Vec<f64> = (0..work.len())
-        .map(|v| patch_saliency[patches.label[v] as usize])
-        .collect();
-    for _ in 0..params.smoothing_iterations {
+/// `iterations` rounds of v ← ½ v + ½ (mean of its mesh neighbours).
+fn smooth_on_graph(work: &WorkingCopy, mut values: Vec<f64>, iterations: usize) -> Vec<f64> {
+    for _ in 0..iterations {
         values = (0..work.len())
             .map(|v| {
                 let (mut sum, mut count) = (0.0, 0usize);
@@ -193,17 +225,7 @@ pub fn manifold_ranking_saliency(
             })
             .collect();
     }
-    Ok((
-        work.carry_back(&values),
-        MrReport {
-            working_copy: work.report(),
-            raw: RawSpread::of(&values, &work.areas),
-            patches: p,
-            background_queries: queries,
-            ranking_iterations: iterations,
-            ranking_residual: residual,
-        },
-    ))
+    values
 }
 
 /// Solves (D − αW) r = y by conjugate gradients (the matrix is symmetric and strictly
