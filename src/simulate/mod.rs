@@ -570,23 +570,7 @@ fn simulate_one(
     let duration_s = plan.duration_s();
     let end_us = onset_us + (duration_s * 1e6).round() as i64;
     let stop_us = end_us + (params.tail_s * 1e6).round() as i64;
-    let messages = vec![
-        Message {
-            time_us: base_us,
-            trial: 1,
-            text: "fixation-cross.bmp".into(),
-        },
-        Message {
-            time_us: onset_us,
-            trial: 1,
-            text: stimulus_name.to_string(),
-        },
-        Message {
-            time_us: end_us,
-            trial: 1,
-            text: "blank.bmp".into(),
-        },
-    ];
+    let messages = trial_messages(base_us, onset_us, end_us, stimulus_name);
     let pupil = 3.2 + 0.8 * rng.random::<f64>();
     let mut rec = Recording {
         rng,
@@ -604,39 +588,19 @@ fn simulate_one(
     while rec.t_us < stop_us {
         // Where to look next.
         let t_s = (rec.t_us - onset_us) as f64 / 1e6;
-        let mut fix = TrueFixation {
-            subject: id.clone(),
-            index,
-            start_us: 0,
-            end_us: 0,
-            start_ms: 0.0,
-            duration_ms: 0.0,
-            phase: "lead-in".into(),
-            viewpoint: None,
-            vertex: None,
-            target_x: 0.5 * w,
-            target_y: 0.5 * h,
-            gaze_x: 0.0,
-            gaze_y: 0.0,
-        };
-        if t_s >= duration_s {
-            fix.phase = "tail".into();
-            // A blank screen: drift around the centre.
-            let mut n = Normal(&mut rec.rng);
-            fix.target_x = 0.5 * w + 3.0 * ppd * n.sample();
-            fix.target_y = 0.5 * h + 3.0 * ppd * n.sample();
-        } else if t_s >= 0.0 {
-            // Choose by the camera about when the eye arrives.
-            let (cam, visible) = visible_at((t_s + 0.04).min(duration_s - 1e-6));
-            fix.phase = cam.phase.name().into();
-            fix.viewpoint = Some(cam.viewpoint);
-            let min_d = params.min_saccade_deg * ppd;
-            if let Some((v, x, y)) = choose_target(&visible, weights, gaze, min_d, &mut rec.rng) {
-                fix.vertex = Some(v);
-                fix.target_x = x;
-                fix.target_y = y;
-            }
-        }
+        let screen = Screen { w, h, ppd };
+        let mut fix = next_target(
+            &mut rec.rng,
+            t_s,
+            duration_s,
+            &screen,
+            gaze,
+            visible_at,
+            weights,
+            params,
+        );
+        fix.subject = id.clone();
+        fix.index = index;
         // Accuracy error: per-axis σ so that the RMS radius is accuracy_deg.
         let sigma = params.accuracy_deg / std::f64::consts::SQRT_2 * ppd;
         let (ox, oy) = {
@@ -648,15 +612,7 @@ fn simulate_one(
         if index > 0 {
             rec.saccade(gaze, land, ppd, stop_us);
         }
-        // The fixation: in the lead-in it lasts until shortly after onset (first saccade
-        // latency ~ 200 ms).
-        let dur_ms = if index == 0 {
-            params.lead_in_s * 1000.0 + 150.0 + 100.0 * rec.rng.random::<f64>()
-        } else {
-            let z = Normal(&mut rec.rng).sample();
-            (params.fixation_median_ms * (params.fixation_sigma_log * z).exp())
-                .clamp(params.fixation_min_ms, params.fixation_max_ms)
-        };
+        let dur_ms = fixation_duration_ms(index, params, &mut rec.rng);
         let f0 = rec.t_us;
         rec.fixation(land, (f0 + (dur_ms * 1000.0) as i64).min(stop_us));
         gaze = land;
@@ -683,6 +639,97 @@ fn simulate_one(
         events: rec.events,
         fixations,
     })
+}
+
+/// The recording's messages: the fixation cross, the video at its onset, the blank after it.
+fn trial_messages(base_us: i64, onset_us: i64, end_us: i64, stimulus_name: &str) -> Vec<Message> {
+    vec![
+        Message {
+            time_us: base_us,
+            trial: 1,
+            text: "fixation-cross.bmp".into(),
+        },
+        Message {
+            time_us: onset_us,
+            trial: 1,
+            text: stimulus_name.to_string(),
+        },
+        Message {
+            time_us: end_us,
+            trial: 1,
+            text: "blank.bmp".into(),
+        },
+    ]
+}
+
+/// The screen in pixels and pixels per degree at the subject's head distance.
+struct Screen {
+    w: f64,
+    h: f64,
+    ppd: f64,
+}
+
+/// The next fixation's target at `t_s` seconds from onset: the screen centre in the lead-in,
+/// a drift around it on the blank after the video, else a vertex chosen by `weights` among
+/// those visible when the eye arrives (subject and index are the caller's).
+#[allow(clippy::too_many_arguments)]
+fn next_target(
+    rng: &mut ChaCha8Rng,
+    t_s: f64,
+    duration_s: f64,
+    screen: &Screen,
+    gaze: (f64, f64),
+    visible_at: &dyn Fn(f64) -> (CameraState, VisibleSet),
+    weights: &[f64],
+    params: &ObserverParams,
+) -> TrueFixation {
+    let (w, h, ppd) = (screen.w, screen.h, screen.ppd);
+    let mut fix = TrueFixation {
+        subject: String::new(),
+        index: 0,
+        start_us: 0,
+        end_us: 0,
+        start_ms: 0.0,
+        duration_ms: 0.0,
+        phase: "lead-in".into(),
+        viewpoint: None,
+        vertex: None,
+        target_x: 0.5 * w,
+        target_y: 0.5 * h,
+        gaze_x: 0.0,
+        gaze_y: 0.0,
+    };
+    if t_s >= duration_s {
+        fix.phase = "tail".into();
+        // A blank screen: drift around the centre.
+        let mut n = Normal(rng);
+        fix.target_x = 0.5 * w + 3.0 * ppd * n.sample();
+        fix.target_y = 0.5 * h + 3.0 * ppd * n.sample();
+    } else if t_s >= 0.0 {
+        // Choose by the camera about when the eye arrives.
+        let (cam, visible) = visible_at((t_s + 0.04).min(duration_s - 1e-6));
+        fix.phase = cam.phase.name().into();
+        fix.viewpoint = Some(cam.viewpoint);
+        let min_d = params.min_saccade_deg * ppd;
+        if let Some((v, x, y)) = choose_target(&visible, weights, gaze, min_d, rng) {
+            fix.vertex = Some(v);
+            fix.target_x = x;
+            fix.target_y = y;
+        }
+    }
+    fix
+}
+
+/// The fixation's duration: in the lead-in until shortly after onset (first saccade latency
+/// ~ 200 ms), else log-normal about the median, clamped.
+fn fixation_duration_ms(index: usize, params: &ObserverParams, rng: &mut ChaCha8Rng) -> f64 {
+    if index == 0 {
+        params.lead_in_s * 1000.0 + 150.0 + 100.0 * rng.random::<f64>()
+    } else {
+        let z = Normal(rng).sample();
+        (params.fixation_median_ms * (params.fixation_sigma_log * z).exp())
+            .clamp(params.fixation_min_ms, params.fixation_max_ms)
+    }
 }
 
 /// A target model independent of every saliency method: the distance of each vertex from the
