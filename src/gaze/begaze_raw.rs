@@ -6,31 +6,157 @@
 use super::recording::{EyeSample, GazeError, Header, Recording, RowAccount, Sample, SmiFormat};
 use super::text::{decode, header_row, lines, number, table_row, Separator};
 
+/// Where an eye's X, Y and (optional) pupil columns are.
+type EyeColumns = Option<(usize, usize, Option<usize>)>;
+
+/// The columns this reader uses, by name.
+struct RawColumns {
+    time: usize,
+    left: EyeColumns,
+    right: EyeColumns,
+    binocular: EyeColumns,
+    trial: Option<usize>,
+    stimulus: Option<usize>,
+    participant: Option<usize>,
+    category: [Option<usize>; 3],
+}
+
+impl RawColumns {
+    fn find(columns: &[String], path: &str) -> Result<RawColumns, GazeError> {
+        let col = |name: &str| columns.iter().position(|c| c == name);
+        let time = col("RecordingTime [ms]").ok_or_else(|| GazeError::At {
+            path: path.to_string(),
+            line: 1,
+            column: 1,
+            message: "no `RecordingTime [ms]` column: not a BeGaze Raw Data export".into(),
+        })?;
+        let eye_cols = |e: &str| {
+            Some((
+                col(&format!("Point of Regard {e} X [px]"))?,
+                col(&format!("Point of Regard {e} Y [px]"))?,
+                col(&format!("Pupil Diameter {e} [mm]")),
+            ))
+        };
+        Ok(RawColumns {
+            time,
+            left: eye_cols("Left"),
+            right: eye_cols("Right"),
+            binocular: eye_cols("Binocular"),
+            trial: col("Trial"),
+            stimulus: col("Stimulus"),
+            participant: col("Participant"),
+            category: [
+                col("Category Left"),
+                col("Category Right"),
+                col("Category Binocular"),
+            ],
+        })
+    }
+}
+
+/// One data row's fields, where it is, and how its rejects are counted.
+struct Row<'a, 'r> {
+    fields: &'a [(usize, &'a str)],
+    no: usize,
+    line: &'a str,
+    sep: Separator,
+    columns: &'a [String],
+    rows: &'r mut RowAccount,
+}
+
+impl Row<'_, '_> {
+    /// One eye's sample; `Err` when a field is not a number (the row is counted as unusable).
+    fn eye(&mut self, c: EyeColumns) -> Result<Option<EyeSample>, ()> {
+        let Some((xc, yc, pc)) = c else {
+            return Ok(None);
+        };
+        let x = self.number(xc)?;
+        let y = self.number(yc)?;
+        let pupil = match pc {
+            Some(i) => self.number(i)?,
+            None => None,
+        };
+        Ok(Some(match (x, y) {
+            (Some(x), Some(y)) => EyeSample {
+                x,
+                y,
+                pupil,
+                valid: !(x == 0.0 && y == 0.0),
+                flag_lost: false,
+            },
+            _ => EyeSample {
+                x: 0.0,
+                y: 0.0,
+                pupil,
+                valid: false,
+                flag_lost: false,
+            },
+        }))
+    }
+
+    fn number(&mut self, i: usize) -> Result<Option<f64>, ()> {
+        number(self.fields[i].1, self.sep).map_err(|_| {
+            self.rows.reject(
+                &format!("`{}` is not a number", self.columns[i]),
+                self.no,
+                self.fields[i].0,
+                self.line,
+            )
+        })
+    }
+
+    fn text(&self, c: Option<usize>) -> Option<String> {
+        c.map(|i| self.fields[i].1.trim().to_string())
+    }
+
+    /// The row's sample, or None when it is unusable (counted).
+    fn sample(&mut self, cols: &RawColumns) -> Option<Sample> {
+        let (tc, tt) = self.fields[cols.time];
+        let time_us = match number(tt, self.sep) {
+            Ok(Some(ms)) => (ms * 1000.0).round() as i64,
+            _ => {
+                self.rows.reject(
+                    "`RecordingTime [ms]` is not a number",
+                    self.no,
+                    tc,
+                    self.line,
+                );
+                return None;
+            }
+        };
+        // `Trial001` → 1.
+        let trial = cols
+            .trial
+            .map(|c| self.fields[c].1.trim())
+            .and_then(|t| {
+                t.trim_start_matches(|ch: char| !ch.is_ascii_digit())
+                    .parse::<u32>()
+                    .ok()
+            })
+            .unwrap_or(1);
+        let left = self.eye(cols.left).ok()?;
+        let right = self.eye(cols.right).ok()?;
+        let binocular = self.eye(cols.binocular).ok()?;
+        let [cat_l, cat_r, cat_b] = cols.category;
+        Some(Sample {
+            time_us,
+            trial,
+            left,
+            right,
+            binocular,
+            binocular_event: self.text(cat_b),
+            left_event: self.text(cat_l),
+            right_event: self.text(cat_r),
+            stimulus: self.text(cols.stimulus),
+        })
+    }
+}
+
 pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     let text = decode(bytes);
     let all = lines(&text);
     let (sep, columns) = header_row(&all, path)?;
-    let col = |name: &str| columns.iter().position(|c| c == name);
-    let time_c = col("RecordingTime [ms]").ok_or_else(|| GazeError::At {
-        path: path.to_string(),
-        line: 1,
-        column: 1,
-        message: "no `RecordingTime [ms]` column: not a BeGaze Raw Data export".into(),
-    })?;
-    let eye_cols = |e: &str| {
-        Some((
-            col(&format!("Point of Regard {e} X [px]"))?,
-            col(&format!("Point of Regard {e} Y [px]"))?,
-            col(&format!("Pupil Diameter {e} [mm]")),
-        ))
-    };
-    let (left_c, right_c, bin_c) = (eye_cols("Left"), eye_cols("Right"), eye_cols("Binocular"));
-    let (trial_c, stimulus_c, participant_c) = (col("Trial"), col("Stimulus"), col("Participant"));
-    let (cat_l, cat_r, cat_b) = (
-        col("Category Left"),
-        col("Category Right"),
-        col("Category Binocular"),
-    );
+    let cols = RawColumns::find(&columns, path)?;
     let mut rows = RowAccount {
         lines: all.len(),
         header_lines: 1,
@@ -38,90 +164,27 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     };
     let mut header = Header::default();
     let mut samples = Vec::new();
-    'rows: for &(no, line) in &all[1..] {
+    for &(no, line) in &all[1..] {
         let Some(f) = table_row(line, no, sep, columns.len(), &mut rows) else {
             continue;
         };
-        let (tc, tt) = f[time_c];
-        let time_us = match number(tt, sep) {
-            Ok(Some(ms)) => (ms * 1000.0).round() as i64,
-            _ => {
-                rows.reject("`RecordingTime [ms]` is not a number", no, tc, line);
-                continue;
-            }
+        let mut row = Row {
+            fields: &f,
+            no,
+            line,
+            sep,
+            columns: &columns,
+            rows: &mut rows,
         };
-        // `Trial001` → 1.
-        let trial = trial_c
-            .map(|c| f[c].1.trim())
-            .and_then(|t| {
-                t.trim_start_matches(|ch: char| !ch.is_ascii_digit())
-                    .parse::<u32>()
-                    .ok()
-            })
-            .unwrap_or(1);
-        let mut eye = |c: Option<(usize, usize, Option<usize>)>| -> Result<Option<EyeSample>, ()> {
-            let Some((xc, yc, pc)) = c else {
-                return Ok(None);
-            };
-            let mut get = |i: usize| {
-                number(f[i].1, sep).map_err(|_| {
-                    rows.reject(
-                        &format!("`{}` is not a number", columns[i]),
-                        no,
-                        f[i].0,
-                        line,
-                    )
-                })
-            };
-            let x = get(xc)?;
-            let y = get(yc)?;
-            let pupil = match pc {
-                Some(i) => get(i)?,
-                None => None,
-            };
-            Ok(Some(match (x, y) {
-                (Some(x), Some(y)) => EyeSample {
-                    x,
-                    y,
-                    pupil,
-                    valid: !(x == 0.0 && y == 0.0),
-                    flag_lost: false,
-                },
-                _ => EyeSample {
-                    x: 0.0,
-                    y: 0.0,
-                    pupil,
-                    valid: false,
-                    flag_lost: false,
-                },
-            }))
+        let Some(sample) = row.sample(&cols) else {
+            continue;
         };
-        let Ok(left) = eye(left_c) else {
-            continue 'rows;
-        };
-        let Ok(right) = eye(right_c) else {
-            continue 'rows;
-        };
-        let Ok(binocular) = eye(bin_c) else {
-            continue 'rows;
-        };
-        let text_of = |c: Option<usize>| c.map(|i| f[i].1.trim().to_string());
         if header.subject.is_none() {
-            header.subject = participant_c
-                .map(|i| f[i].1.trim().to_string())
+            header.subject = row
+                .text(cols.participant)
                 .filter(|p| !super::text::is_missing(p));
         }
-        samples.push(Sample {
-            time_us,
-            trial,
-            left,
-            right,
-            binocular,
-            binocular_event: text_of(cat_b),
-            left_event: text_of(cat_l),
-            right_event: text_of(cat_r),
-            stimulus: text_of(stimulus_c),
-        });
+        samples.push(sample);
         rows.samples += 1;
     }
     let mut notes = Vec::new();

@@ -264,38 +264,11 @@ fn parse_rows(chunk: &[(usize, &str)], layout: &Layout) -> (Vec<Sample>, Vec<Mes
                 let mut events = [None, None];
                 for (k, cols) in [&left, &right].into_iter().enumerate() {
                     let Some(c) = cols else { continue };
-                    let mut get = |i: usize, name: &str| -> Result<Option<f64>, ()> {
-                        number(f[i].1, sep).map_err(|_| {
-                            rows.reject(&format!("`{name}` is not a number"), no, f[i].0, line);
-                        })
-                    };
-                    let Ok(x) = get(c.x, &columns[c.x]) else {
+                    let Ok((eye, event)) = smp_eye(&f, c, columns, no, line, &mut rows) else {
                         continue 'rows;
                     };
-                    let Ok(y) = get(c.y, &columns[c.y]) else {
-                        continue 'rows;
-                    };
-                    let pupil = match c.pupil.map(|i| get(i, &columns[i])) {
-                        Some(Err(())) => continue 'rows,
-                        Some(Ok(p)) => p,
-                        None => None,
-                    };
-                    let validity = match c.validity.map(|i| get(i, &columns[i])) {
-                        Some(Err(())) => continue 'rows,
-                        Some(Ok(v)) => v,
-                        None => None,
-                    };
-                    let (x, y) = (x.unwrap_or(0.0), y.unwrap_or(0.0));
-                    let flag_lost = validity == Some(0.0);
-                    let valid = !(flag_lost || (x == 0.0 && y == 0.0));
-                    eyes[k] = Some(EyeSample {
-                        x,
-                        y,
-                        pupil,
-                        valid,
-                        flag_lost,
-                    });
-                    events[k] = c.event.map(|i| f[i].1.trim().to_string());
+                    eyes[k] = Some(eye);
+                    events[k] = event;
                 }
                 let [left_eye, right_eye] = eyes;
                 let [left_event, right_event] = events;
@@ -321,4 +294,41 @@ fn parse_rows(chunk: &[(usize, &str)], layout: &Layout) -> (Vec<Sample>, Vec<Mes
         }
     }
     (samples, messages, rows)
+}
+
+/// One eye of an SMP row and its event column; `Err` when a field is not a number (the row
+/// is counted as unusable). Lost where the validity is 0 or the POR is (0, 0).
+fn smp_eye(
+    f: &[(usize, &str)],
+    c: &EyeColumns,
+    columns: &[String],
+    no: usize,
+    line: &str,
+    rows: &mut RowAccount,
+) -> Result<(EyeSample, Option<String>), ()> {
+    let mut get = |i: usize| -> Result<Option<f64>, ()> {
+        number(f[i].1, Separator::Tab).map_err(|_| {
+            rows.reject(
+                &format!("`{}` is not a number", columns[i]),
+                no,
+                f[i].0,
+                line,
+            );
+        })
+    };
+    let x = get(c.x)?;
+    let y = get(c.y)?;
+    let pupil = c.pupil.map(&mut get).transpose()?.flatten();
+    let validity = c.validity.map(&mut get).transpose()?.flatten();
+    let (x, y) = (x.unwrap_or(0.0), y.unwrap_or(0.0));
+    let flag_lost = validity == Some(0.0);
+    let valid = !(flag_lost || (x == 0.0 && y == 0.0));
+    let eye = EyeSample {
+        x,
+        y,
+        pupil,
+        valid,
+        flag_lost,
+    };
+    Ok((eye, c.event.map(|i| f[i].1.trim().to_string())))
 }
