@@ -327,13 +327,16 @@ impl ClusterGrid {
     }
 }
 
+/// A target's index keyed by the grid cell holding it.
+type CellKeyed = ([i64; 3], usize);
+
 /// Targets sorted by the cell of side `g` holding them, and the (start, end) of each cell's run.
 fn targets_by_cell(
     targets: &[DVec3],
     origin: DVec3,
     g: f64,
-) -> (Vec<([i64; 3], usize)>, Vec<(usize, usize)>) {
-    let mut order: Vec<([i64; 3], usize)> = targets
+) -> (Vec<CellKeyed>, Vec<(usize, usize)>) {
+    let mut order: Vec<CellKeyed> = targets
         .par_iter()
         .enumerate()
         .map(|(t, p)| (cell_of(*p, origin, g), t))

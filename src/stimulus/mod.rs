@@ -418,23 +418,91 @@ struct Segment<'a> {
 }
 
 impl Segment<'_> {
+    /// Frame `i` with its overlays, and whether it begins a hold. A hold's image is rendered
+    /// once and reused (`cached`: the viewpoint and image of the current hold).
+    fn frame(
+        &self,
+        i: usize,
+        cached: &mut Option<(usize, Arc<Vec<u8>>)>,
+        counts: &mut FrameCounts,
+    ) -> (Arc<Vec<u8>>, bool) {
+        let protocol = self.protocol;
+        let (w, h) = (protocol.display.width_px, protocol.display.height_px);
+        let fps = protocol.video.fps;
+        let overlays = protocol.sync.photodiode || protocol.sync.frame_counter;
+        let cam = self.plan.at(i as f64 / fps as f64);
+        let tr = Instant::now();
+        // The first frame of a hold (from the plan: a segment may begin inside one).
+        let previous = (i > 0).then(|| self.plan.at((i - 1) as f64 / fps as f64));
+        let hold_start = cam.phase == Phase::Hold
+            && previous.is_none_or(|p| p.phase != Phase::Hold || p.viewpoint != cam.viewpoint);
+        let image = match cached {
+            Some((viewpoint, image)) if cam.phase == Phase::Hold && *viewpoint == cam.viewpoint => {
+                counts.reused += 1;
+                image.clone()
+            }
+            _ => {
+                counts.rendered += 1;
+                let img = Arc::new(self.raster.render(&cam, &protocol.rendering));
+                let key = if cam.phase == Phase::Hold {
+                    cam.viewpoint
+                } else {
+                    usize::MAX
+                };
+                *cached = Some((key, img.clone()));
+                img
+            }
+        };
+        let frame = if overlays {
+            let mut f = image.as_ref().clone();
+            overlay::apply(&mut f, w as usize, h as usize, i, cam.phase, &protocol.sync);
+            Arc::new(f)
+        } else {
+            image
+        };
+        counts.render_s += tr.elapsed().as_secs_f64();
+        (frame, hold_start)
+    }
+
+    /// The frame as PNG (every frame, or the first of each hold), and the hold's vertex-id
+    /// buffer, as the options ask.
+    fn save_frame_images(&self, i: usize, frame: &[u8], hold_start: bool) -> Result<(), String> {
+        let protocol = self.protocol;
+        let (w, h) = (protocol.display.width_px, protocol.display.height_px);
+        let options = self.options;
+        if options.frames == FrameImages::All
+            || (options.frames == FrameImages::Keyframes && hold_start)
+        {
+            save_png(
+                &self.frames_dir.join(format!("frame_{i:05}.png")),
+                frame,
+                w,
+                h,
+            )?;
+        }
+        if options.id_buffer && hold_start {
+            let cam = self.plan.at(i as f64 / protocol.video.fps as f64);
+            save_id_buffer(
+                self.raster,
+                &cam,
+                &self.frames_dir.join(format!("ids_{i:05}.png")),
+            )?;
+        }
+        Ok(())
+    }
     /// Renders the frames of `range` in order and encodes them on a thread of its own.
     fn run(
         &self,
         range: std::ops::Range<usize>,
         mut encoder: video::SegmentEncoder,
     ) -> Result<SegmentResult, String> {
-        let protocol = self.protocol;
-        let (w, h) = (protocol.display.width_px, protocol.display.height_px);
-        let fps = protocol.video.fps;
         let mut counts = FrameCounts::default();
         let mut cached: Option<(usize, Arc<Vec<u8>>)> = None; // (viewpoint, image) of the current hold
-        let overlays = protocol.sync.photodiode || protocol.sync.frame_counter;
-        // The encoder runs on its own thread behind the renderer: it takes frames in order, so
-        // the video is the same bytes as when one thread did both, and the wall time is about
-        // the larger of the two instead of their sum. A hold repeats one image (the same Arc),
-        // so the queue bounds only distinct images: the renderer can run through a
-        // transition while the encoder works through a hold.
+                                                              // The encoder runs on its own thread behind the renderer: it takes frames in order, so
+                                                              // the video is the same bytes as when one thread did both, and the wall time is about
+                                                              // the larger of the two instead of their sum. A hold repeats one image (the same Arc),
+                                                              // so the queue bounds only distinct images: the renderer can run through a
+                                                              // transition while the encoder works through a hold.
         let in_flight = InFlight::new(IN_FLIGHT_IMAGES);
         let (send, receive) = std::sync::mpsc::channel::<(Arc<Vec<u8>>, bool)>();
         let (encoded, encoder) = std::thread::scope(|scope| -> Result<_, String> {
@@ -461,61 +529,8 @@ impl Segment<'_> {
                     if self.stop.load(std::sync::atomic::Ordering::Relaxed) {
                         break; // another segment failed; its error is the one to report
                     }
-                    let cam = self.plan.at(i as f64 / fps as f64);
-                    let tr = Instant::now();
-                    // The first frame of a hold (from the plan: a segment may begin inside one).
-                    let previous = (i > 0).then(|| self.plan.at((i - 1) as f64 / fps as f64));
-                    let hold_start = cam.phase == Phase::Hold
-                        && previous
-                            .is_none_or(|p| p.phase != Phase::Hold || p.viewpoint != cam.viewpoint);
-                    let reuse = cam.phase == Phase::Hold
-                        && cached.as_ref().is_some_and(|c| c.0 == cam.viewpoint);
-                    if reuse {
-                        counts.reused += 1;
-                    } else {
-                        counts.rendered += 1;
-                        let img = self.raster.render(&cam, &protocol.rendering);
-                        let key = if cam.phase == Phase::Hold {
-                            cam.viewpoint
-                        } else {
-                            usize::MAX
-                        };
-                        cached = Some((key, Arc::new(img)));
-                    }
-                    let image = &cached.as_ref().expect("rendered above").1;
-                    let frame = if overlays {
-                        let mut f = image.as_ref().clone();
-                        overlay::apply(
-                            &mut f,
-                            w as usize,
-                            h as usize,
-                            i,
-                            cam.phase,
-                            &protocol.sync,
-                        );
-                        Arc::new(f)
-                    } else {
-                        image.clone()
-                    };
-                    counts.render_s += tr.elapsed().as_secs_f64();
-                    let options = self.options;
-                    if options.frames == FrameImages::All
-                        || (options.frames == FrameImages::Keyframes && hold_start)
-                    {
-                        save_png(
-                            &self.frames_dir.join(format!("frame_{i:05}.png")),
-                            &frame,
-                            w,
-                            h,
-                        )?;
-                    }
-                    if options.id_buffer && hold_start {
-                        save_id_buffer(
-                            self.raster,
-                            &cam,
-                            &self.frames_dir.join(format!("ids_{i:05}.png")),
-                        )?;
-                    }
+                    let (frame, hold_start) = self.frame(i, &mut cached, &mut counts);
+                    self.save_frame_images(i, &frame, hold_start)?;
                     let distinct = !last_sent.as_ref().is_some_and(|l| Arc::ptr_eq(l, &frame));
                     // A distinct image waits for room; false: the encoder stopped, and its own
                     // error is the one to report.
