@@ -390,21 +390,30 @@ fn a_stimulus_whose_files_changed_is_refused() {
     let mut changed = original.clone();
     changed.extend_from_slice(b"\n");
     std::fs::write(&mesh_path, &changed).unwrap();
-    let e = load_stimulus(&stim, None).err().expect("refused");
+    let e = load_stimulus(&stim, None)
+        .err()
+        .expect("refused")
+        .to_string();
     assert!(e.contains("mesh") && e.contains("does not match"), "{e}");
     std::fs::write(&mesh_path, &original).unwrap();
     // A changed video.
     let video = stim.join("stimulus.mp4");
     let v = std::fs::read(&video).unwrap();
     std::fs::write(&video, &v[..v.len() - 1]).unwrap();
-    let e = load_stimulus(&stim, None).err().expect("refused");
+    let e = load_stimulus(&stim, None)
+        .err()
+        .expect("refused")
+        .to_string();
     assert!(e.contains("video") && e.contains("does not match"), "{e}");
     std::fs::write(&video, &v).unwrap();
     // An edited protocol inside the manifest.
     let manifest = stim.join("manifest.json");
     let m = std::fs::read_to_string(&manifest).unwrap();
     std::fs::write(&manifest, m.replace("hold_s = 0.3", "hold_s = 0.4")).unwrap();
-    let e = load_stimulus(&stim, None).err().expect("refused");
+    let e = load_stimulus(&stim, None)
+        .err()
+        .expect("refused")
+        .to_string();
     assert!(e.contains("protocol"), "{e}");
     std::fs::write(&manifest, &m).unwrap();
     // An edited timeline: one matrix entry of one frame.
@@ -414,7 +423,10 @@ fn a_stimulus_whose_files_changed_is_refused() {
     let (head, tail) = row.rsplit_once(',').unwrap();
     let edited_row = format!("{head},{}", if tail == "0" { "1" } else { "0" });
     std::fs::write(&timeline, t.replacen(row, &edited_row, 1)).unwrap();
-    let e = load_stimulus(&stim, None).err().expect("refused");
+    let e = load_stimulus(&stim, None)
+        .err()
+        .expect("refused")
+        .to_string();
     assert!(e.contains("timeline"), "{e}");
     std::fs::write(&timeline, &t).unwrap();
     assert!(

@@ -169,7 +169,7 @@ proptest! {
             bytes
         };
         std::fs::write(&p, content).unwrap();
-        let e = load_stimulus(&p, None).err().expect("refused");
+        let e = load_stimulus(&p, None).err().expect("refused").to_string();
         prop_assert!(e.contains("manifest.json"), "{}", e);
     }
 }

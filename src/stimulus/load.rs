@@ -12,6 +12,92 @@ use crate::mesh::{load_mesh, LoadReport, Mesh};
 use crate::protocol::Protocol;
 use crate::provenance::{sha256_hex, InputFile};
 
+/// Why a rendered stimulus cannot be used for projection. The variants that say a file
+/// changed after rendering ([`StimulusLoadError::Changed`], [`StimulusLoadError::ProtocolEdited`],
+/// [`StimulusLoadError::CameraDiffers`]) are told apart from a missing or unreadable stimulus
+/// by callers such as `study`, which explain what a changed mesh means for its subjects.
+#[derive(Debug, thiserror::Error)]
+pub enum StimulusLoadError {
+    /// A file could not be read.
+    #[error("{}: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The I/O error.
+        source: std::io::Error,
+    },
+    /// The manifest is not JSON.
+    #[error("{}:{line}:{column}: not a stimulus manifest: {message}", path.display())]
+    NotJson {
+        /// The manifest.
+        path: PathBuf,
+        /// Line of the syntax error (1-based).
+        line: usize,
+        /// Column of the syntax error (1-based).
+        column: usize,
+        /// The parser's message.
+        message: String,
+    },
+    /// The manifest lacks a field, or has it with the wrong type.
+    #[error("{}: {message}", path.display())]
+    Manifest {
+        /// The manifest.
+        path: PathBuf,
+        /// Which field and what is wrong with it.
+        message: String,
+    },
+    /// The protocol text in the manifest no longer matches its recorded hash.
+    #[error("{}: the protocol text does not match its recorded SHA-256: the manifest was edited", path.display())]
+    ProtocolEdited {
+        /// The manifest.
+        path: PathBuf,
+    },
+    /// The mesh, video or timeline is not the file the manifest recorded.
+    #[error("{what} {} does not match the stimulus manifest (SHA-256 {got}, manifest says {expected}): the file changed after rendering, or it is another file", path.display())]
+    Changed {
+        /// `mesh`, `video` or `timeline`.
+        what: &'static str,
+        /// The file on disk.
+        path: PathBuf,
+        /// Its SHA-256 now.
+        got: String,
+        /// The SHA-256 the manifest recorded.
+        expected: String,
+    },
+    /// The camera recomputed from mesh and protocol differs from a timeline row.
+    #[error("{}:{line}: the camera recomputed from the mesh and protocol differs from the recorded one (another meshgaze version or a modified file); refusing to project with a camera the subjects did not see", path.display())]
+    CameraDiffers {
+        /// The timeline.
+        path: PathBuf,
+        /// The first differing line (1-based, header is line 1).
+        line: usize,
+    },
+    /// The timeline's header or length is not what this version writes.
+    #[error("{}{message}", path.display())]
+    Timeline {
+        /// The timeline.
+        path: PathBuf,
+        /// `:1: unexpected header ...` or `: N frames, ...`.
+        message: String,
+    },
+    /// The protocol, mesh or camera stage refused (its text names the file).
+    #[error("{0}")]
+    Stage(String),
+}
+
+impl StimulusLoadError {
+    /// True when a file of the stimulus changed after it was rendered (as opposed to
+    /// missing, unreadable or malformed).
+    pub fn is_changed_after_rendering(&self) -> bool {
+        matches!(
+            self,
+            StimulusLoadError::Changed { .. }
+                | StimulusLoadError::ProtocolEdited { .. }
+                | StimulusLoadError::CameraDiffers { .. }
+        )
+    }
+}
+
 /// A stimulus whose files were checked against its manifest.
 pub struct LoadedStimulus {
     pub manifest_path: PathBuf,
@@ -47,24 +133,27 @@ impl LoadedStimulus {
     }
 }
 
-fn field<'a>(v: &'a Value, path: &[&str], file: &Path) -> Result<&'a Value, String> {
+fn field<'a>(v: &'a Value, path: &[&str], file: &Path) -> Result<&'a Value, StimulusLoadError> {
     let mut cur = v;
     for p in path {
-        cur = cur.get(p).ok_or_else(|| {
-            format!(
-                "{}: the manifest has no `{}`; was it written by `meshgaze stimulus`?",
-                file.display(),
+        cur = cur.get(p).ok_or_else(|| StimulusLoadError::Manifest {
+            path: file.to_path_buf(),
+            message: format!(
+                "the manifest has no `{}`; was it written by `meshgaze stimulus`?",
                 path.join(".")
-            )
+            ),
         })?;
     }
     Ok(cur)
 }
 
-fn text<'a>(v: &'a Value, path: &[&str], file: &Path) -> Result<&'a str, String> {
+fn text<'a>(v: &'a Value, path: &[&str], file: &Path) -> Result<&'a str, StimulusLoadError> {
     field(v, path, file)?
         .as_str()
-        .ok_or_else(|| format!("{}: `{}` is not text", file.display(), path.join(".")))
+        .ok_or_else(|| StimulusLoadError::Manifest {
+            path: file.to_path_buf(),
+            message: format!("`{}` is not text", path.join(".")),
+        })
 }
 
 /// A file named in the manifest: as written (relative to the working directory when the
@@ -78,15 +167,21 @@ fn resolve(named: &str, manifest_dir: &Path) -> PathBuf {
     }
 }
 
-fn check_hash(path: &Path, expected: &str, what: &str) -> Result<String, String> {
+fn check_hash(
+    path: &Path,
+    expected: &str,
+    what: &'static str,
+) -> Result<String, StimulusLoadError> {
     let got = InputFile::hash(path)
-        .map_err(|e| format!("{what} {}: {e}", path.display()))?
+        .map_err(|e| StimulusLoadError::Stage(format!("{what} {}: {e}", path.display())))?
         .sha256;
     if got != expected {
-        return Err(format!(
-            "{what} {} does not match the stimulus manifest (SHA-256 {got}, manifest says {expected}): the file changed after rendering, or it is another file",
-            path.display()
-        ));
+        return Err(StimulusLoadError::Changed {
+            what,
+            path: path.to_path_buf(),
+            got,
+            expected: expected.to_string(),
+        });
     }
     Ok(got)
 }
@@ -97,21 +192,21 @@ fn check_hash(path: &Path, expected: &str, what: &str) -> Result<String, String>
 pub fn load_stimulus(
     manifest: &Path,
     mesh_override: Option<&Path>,
-) -> Result<LoadedStimulus, String> {
+) -> Result<LoadedStimulus, StimulusLoadError> {
     let manifest_path = if manifest.is_dir() {
         manifest.join("manifest.json")
     } else {
         manifest.to_path_buf()
     };
-    let bytes =
-        std::fs::read(&manifest_path).map_err(|e| format!("{}: {e}", manifest_path.display()))?;
-    let v: Value = serde_json::from_slice(&bytes).map_err(|e| {
-        format!(
-            "{}:{}:{}: not a stimulus manifest: {e}",
-            manifest_path.display(),
-            e.line(),
-            e.column()
-        )
+    let bytes = std::fs::read(&manifest_path).map_err(|source| StimulusLoadError::Read {
+        path: manifest_path.clone(),
+        source,
+    })?;
+    let v: Value = serde_json::from_slice(&bytes).map_err(|e| StimulusLoadError::NotJson {
+        path: manifest_path.clone(),
+        line: e.line(),
+        column: e.column(),
+        message: e.to_string(),
     })?;
     let dir = manifest_path
         .parent()
@@ -122,20 +217,18 @@ pub fn load_stimulus(
     let protocol_text = text(&v, &["protocol_toml"], mp)?;
     let protocol_sha = text(&v, &["protocol_sha256"], mp)?;
     if sha256_hex(protocol_text.as_bytes()) != protocol_sha {
-        return Err(format!(
-            "{}: the protocol text does not match its recorded SHA-256: the manifest was edited",
-            mp.display()
-        ));
+        return Err(StimulusLoadError::ProtocolEdited { path: mp.clone() });
     }
     let protocol = Protocol::from_toml(protocol_text, &format!("{} (protocol_toml)", mp.display()))
-        .map_err(|e| e.to_string())?;
+        .map_err(|e| StimulusLoadError::Stage(e.to_string()))?;
     // Mesh.
     let mesh_path = match mesh_override {
         Some(p) => p.to_path_buf(),
         None => resolve(text(&v, &["mesh", "file"], mp)?, &dir),
     };
     let mesh_sha256 = check_hash(&mesh_path, text(&v, &["mesh", "sha256"], mp)?, "mesh")?;
-    let (mesh, mesh_report) = load_mesh(&mesh_path).map_err(|e| e.to_string())?;
+    let (mesh, mesh_report) =
+        load_mesh(&mesh_path).map_err(|e| StimulusLoadError::Stage(e.to_string()))?;
     // Video.
     let video_path = dir.join(text(&v, &["video", "file"], mp)?);
     let video_sha256 = check_hash(&video_path, text(&v, &["video", "sha256"], mp)?, "video")?;
@@ -146,35 +239,39 @@ pub fn load_stimulus(
         text(&v, &["timeline", "sha256"], mp)?,
         "timeline",
     )?;
-    let plan = CameraPlan::new(&mesh, &protocol)?;
+    let plan = CameraPlan::new(&mesh, &protocol).map_err(StimulusLoadError::Stage)?;
     let fps = protocol.video.fps;
-    let timeline = std::fs::read_to_string(&timeline_path)
-        .map_err(|e| format!("{}: {e}", timeline_path.display()))?;
+    let timeline =
+        std::fs::read_to_string(&timeline_path).map_err(|source| StimulusLoadError::Read {
+            path: timeline_path.clone(),
+            source,
+        })?;
     let mut lines = timeline.lines();
     if lines.next() != Some(timeline_header().as_str()) {
-        return Err(format!(
-            "{}:1: unexpected header (written by another meshgaze version?)",
-            timeline_path.display()
-        ));
+        return Err(StimulusLoadError::Timeline {
+            path: timeline_path,
+            message: ":1: unexpected header (written by another meshgaze version?)".to_string(),
+        });
     }
     let mut rows = 0;
     for (i, line) in lines.enumerate() {
         let expected = timeline_row(i, &plan.at(i as f64 / fps as f64));
         if line != expected {
-            return Err(format!(
-                "{}:{}: the camera recomputed from the mesh and protocol differs from the recorded one (another meshgaze version or a modified file); refusing to project with a camera the subjects did not see",
-                timeline_path.display(),
-                i + 2
-            ));
+            return Err(StimulusLoadError::CameraDiffers {
+                path: timeline_path,
+                line: i + 2,
+            });
         }
         rows += 1;
     }
     if rows != protocol.frame_count() {
-        return Err(format!(
-            "{}: {rows} frames, the protocol has {}",
-            timeline_path.display(),
-            protocol.frame_count()
-        ));
+        return Err(StimulusLoadError::Timeline {
+            path: timeline_path,
+            message: format!(
+                ": {rows} frames, the protocol has {}",
+                protocol.frame_count()
+            ),
+        });
     }
     Ok(LoadedStimulus {
         manifest_sha256: sha256_hex(&bytes),

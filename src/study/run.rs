@@ -468,7 +468,7 @@ fn mesh_steps(
 fn load_unchanged_stimulus(study: &Study, m: &StudyMesh) -> Result<LoadedStimulus> {
     let stim_dir = study.output.join("stimuli").join(&m.name);
     let stim = load_stimulus(&stim_dir, None).map_err(|e| {
-        if e.contains("SHA-256") || e.contains("sha256") || e.contains("differs") {
+        if e.is_changed_after_rendering() {
             anyhow::anyhow!(
                 "{} changed after its video was rendered: the subjects saw the old mesh, so its fixations cannot be projected onto this one ({e})",
                 m.path.display()
