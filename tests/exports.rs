@@ -12,10 +12,10 @@ use meshgaze::gaze::fixations::{
 use meshgaze::gaze::ingest::{
     check_one_source_per_subject, ingest_file, FilterRules, IngestParams,
 };
-use meshgaze::gaze::recording::{EyeSample, Header, Message, Recording, SmiFormat};
+use meshgaze::gaze::recording::{EyeSample, GazeFormat, Header, Message, Recording};
 use meshgaze::gaze::stimulus_messages::{classify_messages, MessageKind, Segmentation};
 use meshgaze::gaze::writers::write_samples_a;
-use meshgaze::gaze::{detect_format, parse_smi};
+use meshgaze::gaze::{detect_format, parse_recording};
 use proptest::prelude::*;
 
 const VIDEO_US: i64 = 48_000_000;
@@ -91,7 +91,7 @@ fn begaze_event_statistics_monocular_layout_gives_fixations_per_participant() {
         let (text, rows) = monocular_event_statistics(line_end);
         assert_eq!(
             detect_format(text.as_bytes()),
-            Ok(SmiFormat::EventStatistics)
+            Ok(GazeFormat::EventStatistics)
         );
         let dir = temp_dir("b-mono");
         let path = dir.join("mono.txt");
@@ -180,7 +180,7 @@ fn begaze36_events() -> String {
 #[test]
 fn begaze_3_6_binocular_event_text_gives_fixations() {
     let text = begaze36_events();
-    assert_eq!(detect_format(text.as_bytes()), Ok(SmiFormat::EventTables));
+    assert_eq!(detect_format(text.as_bytes()), Ok(GazeFormat::EventTables));
     let dir = temp_dir("c1-b");
     let path = dir.join("s01_events.txt");
     std::fs::write(&path, &text).unwrap();
@@ -244,7 +244,7 @@ fn a_minimal_iview_column_subset_still_reads() {
             l.push(format!("{t}\tSMP\t1\t{x}\t400\t{x}\t400\t1\t1\t1"));
         }
     }
-    let rec = parse_smi((l.join("\n") + "\n").as_bytes(), "minimal.txt", None).unwrap();
+    let rec = parse_recording((l.join("\n") + "\n").as_bytes(), "minimal.txt", None).unwrap();
     assert_eq!(rec.rows.unusable_total(), 0);
     assert_eq!(rec.samples.len(), 750);
     let fx = fixations(
@@ -292,7 +292,7 @@ fn recording_with_messages(messages: &[(i64, &str)]) -> Recording {
     }
     Recording {
         file: "messages.txt".into(),
-        format: SmiFormat::IdfSamples,
+        format: GazeFormat::IdfSamples,
         header: Header {
             sample_rate_hz: Some(250.0),
             calibration_area_px: Some([1680.0, 1050.0]),
@@ -448,7 +448,7 @@ proptest! {
                 }
             }
         }
-        if let Ok(r) = parse_smi(&bytes, "mutated", None) {
+        if let Ok(r) = parse_recording(&bytes, "mutated", None) {
             prop_assert_eq!(r.rows.accounted(), r.rows.lines);
             let _ = fixations(&r, "s", meshgaze::gaze::ingest::default_detector(&r), EyePolicy::Best, &DetectorParams::default(), &params().segmentation);
         }

@@ -3,7 +3,7 @@ mod common;
 
 use std::path::PathBuf;
 
-use meshgaze::gaze::{parse_smi, read_smi, EventKind, Eye, Recording, SmiFormat};
+use meshgaze::gaze::{parse_recording, read_recording, EventKind, Eye, GazeFormat, Recording};
 use proptest::prelude::*;
 
 fn smi(name: &str) -> PathBuf {
@@ -11,7 +11,7 @@ fn smi(name: &str) -> PathBuf {
 }
 
 fn read(name: &str) -> Recording {
-    let r = read_smi(&smi(name), None).unwrap_or_else(|e| panic!("{e}"));
+    let r = read_recording(&smi(name), None).unwrap_or_else(|e| panic!("{e}"));
     // Nothing unaccounted for: every line is header, blank, sample, message, event or counted.
     assert_eq!(r.rows.accounted(), r.rows.lines, "{name}: {:?}", r.rows);
     r
@@ -21,7 +21,7 @@ fn read(name: &str) -> Recording {
 #[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn hbn_samples_binocular_60hz_with_anonymised_header() {
     let r = read("hbn-sccn__NDARAA075AMK_Video1_Samples.txt");
-    assert_eq!(r.format, SmiFormat::IdfSamples);
+    assert_eq!(r.format, GazeFormat::IdfSamples);
     assert_eq!(
         (r.rows.samples, r.rows.messages, r.rows.unusable_total()),
         (7343, 3, 0)
@@ -91,7 +91,7 @@ fn emip_samples_with_pauses_and_identical_eyes() {
 #[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn didec_begaze_samples_with_event_info_and_stimulus() {
     let r = read("pymovements__didec_example.txt");
-    assert_eq!(r.format, SmiFormat::BeGazeSamples);
+    assert_eq!(r.format, GazeFormat::BeGazeSamples);
     assert_eq!((r.rows.samples, r.rows.messages), (15, 1));
     assert_eq!(r.samples[0].stimulus.as_deref(), Some("test.bmp"));
     assert!(r
@@ -107,7 +107,7 @@ fn didec_begaze_samples_with_event_info_and_stimulus() {
 #[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn hbn_events_with_tabs_turned_into_spaces_match_the_samples_clock() {
     let r = read("hbn-sccn__NDARAA075AMK_Video1_Events.txt");
-    assert_eq!(r.format, SmiFormat::EventTables);
+    assert_eq!(r.format, GazeFormat::EventTables);
     assert!(r.notes.iter().any(|n| n.contains("spaces")));
     assert_eq!(r.rows.messages, 3);
     assert_eq!(r.rows.unusable_total(), 0);
@@ -155,7 +155,7 @@ fn zv1n_events_87_trials_tab_separated() {
 
 #[test]
 fn malformed_or_unknown_files_say_what_and_where() {
-    let e = parse_smi(
+    let e = parse_recording(
         b"Trial,Event Start Trial Time [ms],Event End Trial Time [ms]\n",
         "stats.txt",
         None,
@@ -167,12 +167,12 @@ fn malformed_or_unknown_files_say_what_and_where() {
         e,
         "stats.txt:1:1: no `Category` (or `Category Left/Right/Binocular`) column"
     );
-    let e = parse_smi(b"hello\nworld\n", "notes.txt", None)
+    let e = parse_recording(b"hello\nworld\n", "notes.txt", None)
         .map(|r| r.file)
         .unwrap_err()
         .to_string();
     assert!(
-        e.starts_with("notes.txt: not a recognized SMI export"),
+        e.starts_with("notes.txt: not a recognized gaze recording"),
         "{e}"
     );
 }
@@ -181,7 +181,7 @@ fn malformed_or_unknown_files_say_what_and_where() {
 #[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
 fn etg_begaze_raw_data_comma_reexport() {
     let r = read("xiangguo-etg__Ethan_lane_1-1-recording.csv");
-    assert_eq!(r.format, SmiFormat::BeGazeRaw);
+    assert_eq!(r.format, GazeFormat::BeGazeRaw);
     assert_eq!((r.rows.samples, r.rows.unusable_total()), (11_111, 0));
     assert!(r.notes.iter().any(|n| n.contains("re-exported")));
     let s = &r.samples[0];
@@ -218,7 +218,7 @@ fn etg_begaze_raw_data_comma_reexport() {
 fn bad_rows_are_counted_with_their_position_never_dropped_silently() {
     let text = "## [iView]\n## Sample Rate:\t250\n## \nTime\tType\tTrial\tL POR X [px]\tL POR Y [px]\n\
                 100\tSMP\t1\t10.5\t20.5\n104\tSMP\t1\tx\t20\n108\tSMP\t1\t11\n112\tXYZ\t1\t1\t1\n116\tMSG\t1\t# Message: a b\n";
-    let r = parse_smi(text.as_bytes(), "t.txt", None).unwrap();
+    let r = parse_recording(text.as_bytes(), "t.txt", None).unwrap();
     assert_eq!(r.rows.samples, 1);
     assert_eq!(r.rows.messages, 1);
     assert_eq!(r.rows.unusable_total(), 3);
@@ -252,8 +252,8 @@ proptest! {
 
     #[test]
     fn arbitrary_bytes_never_panic(bytes in proptest::collection::vec(any::<u8>(), 0..600)) {
-        for f in [None, Some(SmiFormat::IdfSamples), Some(SmiFormat::EventTables), Some(SmiFormat::BeGazeRaw)] {
-            let _ = parse_smi(&bytes, "fuzz", f);
+        for f in [None, Some(GazeFormat::IdfSamples), Some(GazeFormat::EventTables), Some(GazeFormat::BeGazeRaw)] {
+            let _ = parse_recording(&bytes, "fuzz", f);
         }
     }
 
@@ -268,7 +268,7 @@ proptest! {
             let i = (next() as usize) % b.len();
             b[i] = match next() % 5 { 0 => b'\t', 1 => b'\n', 2 => b'-', 3 => b' ', _ => next() as u8 };
         }
-        if let Ok(r) = parse_smi(&b, "mutated", None) {
+        if let Ok(r) = parse_recording(&b, "mutated", None) {
             prop_assert_eq!(r.rows.accounted(), r.rows.lines);
         }
     }
@@ -306,7 +306,7 @@ mod fixation_tests {
         }
         Recording {
             file: "synthetic".into(),
-            format: SmiFormat::IdfSamples,
+            format: GazeFormat::IdfSamples,
             header: Header {
                 sample_rate_hz: Some(250.0),
                 calibration_area_px: Some([1680.0, 1050.0]),
@@ -558,8 +558,8 @@ mod writer_round_trip {
             }).collect();
             let messages: Vec<Message> = texts.iter().enumerate().map(|(k, text)| Message { time_us: 1_000_000 + 10_000 * k as i64 + 1, trial: 1, text: text.clone() }).collect();
             let text = write_samples_a(&header(), &samples, &messages);
-            let back = parse_smi(text.as_bytes(), "written.txt", None).unwrap();
-            prop_assert_eq!(back.format, SmiFormat::IdfSamples);
+            let back = parse_recording(text.as_bytes(), "written.txt", None).unwrap();
+            prop_assert_eq!(back.format, GazeFormat::IdfSamples);
             prop_assert_eq!(back.rows.unusable_total(), 0);
             prop_assert_eq!(&back.samples, &samples);
             prop_assert_eq!(&back.messages, &messages);
@@ -588,8 +588,8 @@ mod writer_round_trip {
             }).collect();
             let messages = vec![Message { time_us: 5, trial: 1, text: "bunny.mp4".into() }];
             let text = write_events_c1(&header(), &events, &messages);
-            let back = parse_smi(text.as_bytes(), "written_events.txt", None).unwrap();
-            prop_assert_eq!(back.format, SmiFormat::EventTables);
+            let back = parse_recording(text.as_bytes(), "written_events.txt", None).unwrap();
+            prop_assert_eq!(back.format, GazeFormat::EventTables);
             prop_assert_eq!(back.rows.unusable_total(), 0);
             events.sort_by_key(|e| (e.trial, e.start_us, e.eye, e.number));
             prop_assert_eq!(&back.events, &events);
@@ -607,8 +607,8 @@ Trial001\tbunny.mp4\tP07\tFixation\tLeft\t120.5\t420.5\t300.0\t812.3\t400.1\t12\
 Trial001\tbunny.mp4\tP07\tSaccade\tLeft\t420.5\t460.5\t40.0\t-\t-\t-\t-\t-\t812.3\t400.1\t600.0\t300.0\n\
 Trial001\tbunny.mp4\tP07\tSeparator\t-\t-\t-\t-\t-\t-\t-\t-\t-\t-\t-\t-\t-\n\
 Trial002\tcow.mp4\tP07\tFixation\tRight\t10\t250\t240\t100\t200\t5\t5\t4.1\t-\t-\t-\t-\n";
-    let r = parse_smi(tab.as_bytes(), "Event Statistics - Single - 01.txt", None).unwrap();
-    assert_eq!(r.format, SmiFormat::EventStatistics);
+    let r = parse_recording(tab.as_bytes(), "Event Statistics - Single - 01.txt", None).unwrap();
+    assert_eq!(r.format, GazeFormat::EventStatistics);
     assert_eq!(
         (r.rows.events, r.rows.unusable_total(), r.rows.accounted()),
         (3, 1, r.rows.lines)
@@ -635,7 +635,7 @@ Trial002\tcow.mp4\tP07\tFixation\tRight\t10\t250\t240\t100\t200\t5\t5\t4.1\t-\t-
 Trial001;bunny.mp4;P08;Visual Intake;1000,5;1350,5;350,0;640,25;512,75\n\
 Trial001;bunny.mp4;P08;-;1350,5;1400,0;49,5;-;-\n\
 Trial001;bunny.mp4;P08;Fixation;1400,0;abc;1,0;1;1\n";
-    let r = parse_smi(semicolon.as_bytes(), "stats.csv", None).unwrap();
+    let r = parse_recording(semicolon.as_bytes(), "stats.csv", None).unwrap();
     assert_eq!((r.rows.events, r.rows.unusable_total()), (1, 2));
     let e = &r.events[0];
     assert_eq!(

@@ -9,9 +9,9 @@ use std::process::Command;
 use meshgaze::gaze::fixations::{
     apply_protocol_filter, fixations, Detector, DetectorParams, EyePolicy,
 };
-use meshgaze::gaze::parse_smi;
+use meshgaze::gaze::parse_recording;
 use meshgaze::gaze::stimulus_messages::Segmentation;
-use meshgaze::gaze::writers::{write_events_c1, write_samples_a};
+use meshgaze::gaze::writers::{write_events_c1, write_eyelink_asc, write_samples_a};
 use meshgaze::projection::self_check::self_check;
 use meshgaze::projection::table::ProjectedRow;
 use meshgaze::projection::{
@@ -49,9 +49,14 @@ fn ingest_and_project(
     };
     let mut screen = Vec::new();
     for (name, text) in files {
-        let rec = parse_smi(text.as_bytes(), name, None).expect("our own files parse");
+        let rec = parse_recording(text.as_bytes(), name, None).expect("our own files parse");
         assert_eq!(rec.rows.unusable_total(), 0, "{name}");
-        let subject = rec.header.subject.clone().expect("subject in header");
+        // An EyeLink ASC file names no subject: its file name does.
+        let subject = rec
+            .header
+            .subject
+            .clone()
+            .unwrap_or_else(|| name.trim_end_matches(".asc").to_string());
         let mut fx = fixations(
             &rec,
             &subject,
@@ -229,6 +234,37 @@ fn virtual_observers_round_trip_to_their_targets() {
     // Every on-mesh fixation is on target; a target exactly on the silhouette can still
     // miss by a fraction of a pixel (seen once in 87).
     assert!(rt.within_1deg == rt.on_mesh && rt.rate >= 0.97, "{rt:?}");
+    // EyeLink ASC (samples, events and messages in one file) goes through the same way, with
+    // the tracker's fixation events and with I-DT on its samples; it reads back exactly.
+    let files_asc: Vec<(String, String)> = subjects
+        .iter()
+        .map(|s| {
+            (
+                format!("{}.asc", s.id),
+                write_eyelink_asc(&s.header, &s.samples, &s.events, &s.messages),
+            )
+        })
+        .collect();
+    let back = parse_recording(files_asc[0].1.as_bytes(), &files_asc[0].0, None).unwrap();
+    assert_eq!(back.samples.len(), subjects[0].samples.len());
+    assert_eq!(back.events.len(), subjects[0].events.len());
+    for (a, b) in back.samples.iter().zip(&subjects[0].samples) {
+        assert_eq!(a.time_us, b.time_us);
+        assert_eq!(
+            a.left.map(|e| (e.x, e.y, e.valid)),
+            b.left.map(|e| (e.x, e.y, e.valid))
+        );
+    }
+    for detector in [Detector::Events, Detector::IDt] {
+        let projected = ingest_and_project(&files_asc, detector, &plan, &caster, &protocol, None);
+        let rows: Vec<ProjectedRow> = projected.iter().map(ProjectedRow::from).collect();
+        let rt = round_trip(&mesh, &plan, ppd, &targets, &rows);
+        eprintln!("EyeLink ASC, {detector:?}: {rt:?}");
+        assert!(
+            rt.within_1deg == rt.on_mesh && rt.rate >= 0.97,
+            "{detector:?}: {rt:?}"
+        );
+    }
 }
 
 /// Fixations during camera moves: the virtual observer keeps looking at the screen point where

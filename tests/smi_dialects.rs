@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use meshgaze::gaze::fixations::{EyePolicy, Fate};
 use meshgaze::gaze::ingest::{ingest_file, IngestParams, IngestedFile};
 use meshgaze::gaze::validity::ValidityRule;
-use meshgaze::gaze::{parse_smi, SmiFormat};
+use meshgaze::gaze::{parse_recording, GazeFormat};
 use meshgaze::protocol::Protocol;
 
 fn write(name: &str, text: &str) -> PathBuf {
@@ -60,7 +60,7 @@ fn a_right_eye_only_event_file_gives_fixations_by_default() {
         &right_eye_event_statistics(30),
     );
     let f = ingest_file(&p, &params()).unwrap();
-    assert_eq!(f.recording.format, SmiFormat::EventStatistics);
+    assert_eq!(f.recording.format, GazeFormat::EventStatistics);
     assert_eq!(f.fixations.len(), 30);
     assert!(f.fixations.iter().all(|x| x.eye == "right"));
     assert_eq!(kept(&f), 15);
@@ -110,7 +110,7 @@ fn dead_flag_samples(fixations: usize, por_zero: bool) -> String {
 fn validity_flags_that_are_zero_in_every_row_are_set_aside_and_said_so() {
     let p = write("dead_flags_samples.txt", &dead_flag_samples(30, false));
     let f = ingest_file(&p, &params()).unwrap();
-    assert_eq!(f.recording.format, SmiFormat::IdfSamples);
+    assert_eq!(f.recording.format, GazeFormat::IdfSamples);
     assert!(kept(&f) == 15, "{} kept of {}", kept(&f), f.fixations.len());
     assert!(
         f.recording
@@ -171,8 +171,8 @@ fn begaze_fixation_table() -> String {
 #[test]
 fn the_begaze_fixation_table_reads_as_fixation_events_per_subject() {
     let text = begaze_fixation_table();
-    let r = parse_smi(text.as_bytes(), "fixations.txt", None).unwrap();
-    assert_eq!(r.format, SmiFormat::BeGazeFixations);
+    let r = parse_recording(text.as_bytes(), "fixations.txt", None).unwrap();
+    assert_eq!(r.format, GazeFormat::BeGazeFixations);
     assert_eq!((r.rows.events, r.rows.accounted()), (80, r.rows.lines));
     let e = &r.events[0];
     assert_eq!(
@@ -201,7 +201,7 @@ fn the_begaze_fixation_table_reads_as_fixation_events_per_subject() {
     assert_eq!(subjects.into_iter().collect::<Vec<_>>(), ["ss03", "ss04"]);
     // A bad row is counted with its position, not dropped silently.
     let bad = text.replacen("\t565\t200\t", "\tabc\t200\t", 1);
-    let r = parse_smi(bad.as_bytes(), "bad.txt", None).unwrap();
+    let r = parse_recording(bad.as_bytes(), "bad.txt", None).unwrap();
     let first = &r.rows.unusable["`Fixation Start [ms]` is not a number"];
     assert_eq!((first.count, first.line), (1, 2));
 }
@@ -228,8 +228,8 @@ fn iview2_samples(fixations: usize) -> String {
 #[test]
 fn iview_x_2_sample_files_read_and_give_fixations() {
     let text = iview2_samples(24);
-    let r = parse_smi(text.as_bytes(), "subject1.txt", None).unwrap();
-    assert_eq!(r.format, SmiFormat::IviewLegacy);
+    let r = parse_recording(text.as_bytes(), "subject1.txt", None).unwrap();
+    assert_eq!(r.format, GazeFormat::IviewLegacy);
     assert_eq!(r.rows.accounted(), r.rows.lines);
     assert_eq!((r.rows.header_lines, r.rows.unusable_total()), (10, 0));
     assert_eq!(r.header.sample_rate_hz, Some(60.0));
@@ -324,11 +324,11 @@ fn every_no_fixation_outcome_names_its_cause() {
 fn files_that_are_not_gaze_data_are_refused_naming_what_was_expected() {
     let timeline =
         "time\tCalibration|Validation|Movie\tcontent\n0\tCalibration\t-\n1000\tMovie\tbunny.avi\n";
-    let e = parse_smi(timeline.as_bytes(), "timeline.txt", None)
+    let e = parse_recording(timeline.as_bytes(), "timeline.txt", None)
         .unwrap_err()
         .to_string();
     assert!(
-        e.contains("not a recognized SMI export") && e.contains("B-fix") && e.contains("A2"),
+        e.contains("not a recognized gaze recording") && e.contains("B-fix") && e.contains("A2"),
         "{e}"
     );
 }
@@ -398,8 +398,8 @@ mod properties {
         #[test]
         fn mutated_fixation_tables_never_panic_and_account_for_every_line(seed in any::<u64>(), edits in 1usize..30) {
             let b = mutate(begaze_fixation_table().into_bytes(), seed, edits);
-            for format in [None, Some(SmiFormat::BeGazeFixations)] {
-                if let Ok(r) = parse_smi(&b, "mutated", format) {
+            for format in [None, Some(GazeFormat::BeGazeFixations)] {
+                if let Ok(r) = parse_recording(&b, "mutated", format) {
                     prop_assert_eq!(r.rows.accounted(), r.rows.lines);
                     prop_assert!(r.events.iter().all(|e| e.end_us >= e.start_us));
                 }
@@ -409,8 +409,8 @@ mod properties {
         #[test]
         fn mutated_iview2_files_never_panic_and_account_for_every_line(seed in any::<u64>(), edits in 1usize..30) {
             let b = mutate(iview2_samples(6).into_bytes(), seed, edits);
-            for format in [None, Some(SmiFormat::IviewLegacy)] {
-                if let Ok(r) = parse_smi(&b, "mutated", format) {
+            for format in [None, Some(GazeFormat::IviewLegacy)] {
+                if let Ok(r) = parse_recording(&b, "mutated", format) {
                     prop_assert_eq!(r.rows.accounted(), r.rows.lines);
                     prop_assert_eq!(r.samples.len(), r.rows.samples);
                 }
@@ -419,8 +419,8 @@ mod properties {
 
         #[test]
         fn arbitrary_bytes_never_panic_in_the_new_readers(bytes in proptest::collection::vec(any::<u8>(), 0..600)) {
-            for f in [SmiFormat::BeGazeFixations, SmiFormat::IviewLegacy] {
-                if let Ok(r) = parse_smi(&bytes, "fuzz", Some(f)) {
+            for f in [GazeFormat::BeGazeFixations, GazeFormat::IviewLegacy] {
+                if let Ok(r) = parse_recording(&bytes, "fuzz", Some(f)) {
                     prop_assert_eq!(r.rows.accounted(), r.rows.lines);
                 }
             }
@@ -434,7 +434,7 @@ mod properties {
             for (k, lost) in flags.iter().enumerate() {
                 text += &format!("{}\tSMP\t1\t{}.5\t20.0\t{}\n", 1000 * k, 100 + k, if *lost { 0 } else { 1 });
             }
-            let r = parse_smi(text.as_bytes(), "v.txt", None).unwrap();
+            let r = parse_recording(text.as_bytes(), "v.txt", None).unwrap();
             for rule in [ValidityRule::Auto, ValidityRule::Strict, ValidityRule::Por] {
                 let mut x = r.clone();
                 let notes = meshgaze::gaze::validity::apply_validity_rule(&mut x, rule);
@@ -462,7 +462,7 @@ fn a_fixation_time_out_of_range_is_counted_not_a_panic() {
             .join("tests/data/fuzz_begaze_fixations_overflow.txt"),
     )
     .unwrap();
-    let r = parse_smi(&bytes, "crash.txt", Some(SmiFormat::BeGazeFixations)).unwrap();
+    let r = parse_recording(&bytes, "crash.txt", Some(GazeFormat::BeGazeFixations)).unwrap();
     assert_eq!(r.rows.accounted(), r.rows.lines);
     assert!(
         r.rows.unusable.contains_key("fixation time out of range"),

@@ -4,7 +4,7 @@
 use libfuzzer_sys::fuzz_target;
 use meshgaze::gaze::fixations::{fixations, DetectorParams, EyePolicy};
 use meshgaze::gaze::ingest::default_detector;
-use meshgaze::gaze::parse_smi;
+use meshgaze::gaze::parse_recording;
 use meshgaze::gaze::stimulus_messages::{classify_message, Segmentation};
 
 fuzz_target!(|data: &[u8]| {
@@ -13,7 +13,7 @@ fuzz_target!(|data: &[u8]| {
             assert!(!name.is_empty() && line.contains(name.as_str()));
         }
     }
-    let Ok(rec) = parse_smi(data, "fuzz", None) else {
+    let Ok(rec) = parse_recording(data, "fuzz", None) else {
         return;
     };
     let detector = default_detector(&rec);

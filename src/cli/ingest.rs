@@ -13,7 +13,7 @@ use meshgaze::gaze::ingest::{
 };
 use meshgaze::gaze::stimulus_messages::{classify_messages, message_census, stimulus_segments};
 use meshgaze::gaze::validity::ValidityRule;
-use meshgaze::gaze::{read_smi, SmiFormat};
+use meshgaze::gaze::{read_recording, GazeFormat};
 use meshgaze::protocol::Protocol;
 
 /// Read SMI eye-tracker exports, find fixations, apply the protocol's filter, report quality.
@@ -73,7 +73,7 @@ pub struct IngestArgs {
     pub protocol: Option<PathBuf>,
     /// Force the format instead of detecting it.
     #[arg(long, value_enum)]
-    pub format: Option<SmiFormat>,
+    pub format: Option<GazeFormat>,
     /// Where fixations come from (default: events for event files, i-dt for sample files).
     #[arg(long, value_enum)]
     pub detector: Option<Detector>,
@@ -131,7 +131,7 @@ fn params(args: &IngestArgs, protocol: &Protocol) -> Result<IngestParams> {
 /// --list-messages: each file's distinct messages, counted and classified.
 fn list_messages(args: &IngestArgs, params: &IngestParams) -> Result<()> {
     for file in &args.files {
-        let rec = read_smi(file, args.format)?;
+        let rec = read_recording(file, args.format)?;
         let messages = classify_messages(&rec, &params.segmentation);
         println!("{}: {} messages", file.display(), messages.len());
         let census = message_census(&messages);

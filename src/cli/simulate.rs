@@ -10,7 +10,8 @@ use meshgaze::progress::Progress;
 use meshgaze::provenance::InputFile;
 use meshgaze::saliency::{compute_saliency, Method, SmsParams};
 use meshgaze::simulate::{
-    extremity_map, simulate_observers, write_simulation, ObserverParams, TargetModel,
+    extremity_map, simulate_observers, write_simulation, ObserverParams, RecordingFormat,
+    TargetModel,
 };
 use meshgaze::stimulus::load::load_stimulus;
 use meshgaze::truth::{load_ground_truth, GroundTruth};
@@ -80,6 +81,10 @@ pub struct SimulateArgs {
     /// Chance of a blink after each fixation.
     #[arg(long, default_value_t = 0.05)]
     pub blink_probability: f64,
+    /// Which tracker's files to write: smi (format A samples and C1 events, a RED250 lab's
+    /// exports) or eyelink (one ASC file per subject, as edf2asc writes it).
+    #[arg(long, value_enum, default_value_t = RecordingFormat::Smi)]
+    pub recording_format: RecordingFormat,
     /// The mesh, if it moved since the stimulus was rendered (its hash must match).
     #[arg(long)]
     pub mesh: Option<PathBuf>,
@@ -130,11 +135,20 @@ fn run_playlists(args: &SimulateArgs, study_file: &std::path::Path) -> Result<()
     meshgaze::file_bytes::create_output_dir(&args.output)?;
     for s in &subjects {
         let r = &s.recording;
-        let p = args.output.join(format!("{}_samples.txt", r.id));
-        std::fs::write(&p, write_samples_a(&r.header, &r.samples, &r.messages))
-            .with_context(|| format!("cannot write {}", p.display()))?;
-        if !args.quiet {
-            eprintln!("{}: {}", p.display(), s.order.join(", "));
+        // A playlist's SMI recording is its sample file alone (as a study's lab exports it).
+        let files = match args.recording_format {
+            RecordingFormat::Smi => vec![(
+                format!("{}_samples.txt", r.id),
+                write_samples_a(&r.header, &r.samples, &r.messages),
+            )],
+            f => f.files(&r.id, &r.header, &r.samples, &r.events, &r.messages),
+        };
+        for (name, text) in files {
+            let p = args.output.join(name);
+            std::fs::write(&p, text).with_context(|| format!("cannot write {}", p.display()))?;
+            if !args.quiet {
+                eprintln!("{}: {}", p.display(), s.order.join(", "));
+            }
         }
     }
     Ok(())
@@ -176,6 +190,7 @@ pub fn run(args: SimulateArgs) -> Result<()> {
         &stimulus_name,
         &model_name,
         &params,
+        args.recording_format,
     )
     .map_err(anyhow::Error::msg)?;
     if !args.quiet {

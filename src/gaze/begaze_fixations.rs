@@ -9,7 +9,7 @@
 //! Fixation times are milliseconds from the start of the trial, whose stimulus the row names;
 //! one file holds several subjects and trials. `Eye` is `Binocular`, `Left` or `Right`.
 use super::recording::{
-    Event, EventKind, Eye, GazeError, Header, Recording, RowAccount, SmiFormat,
+    Event, EventKind, Eye, GazeError, GazeFormat, Header, Recording, RowAccount,
 };
 use super::text::{
     decode, header_row, is_missing, lines, number, required_column, table_row, Separator,
@@ -116,7 +116,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     }
     Ok(Recording {
         file: path.to_string(),
-        format: SmiFormat::BeGazeFixations,
+        format: GazeFormat::BeGazeFixations,
         header,
         columns,
         samples: Vec::new(),

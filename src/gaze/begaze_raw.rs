@@ -3,7 +3,7 @@
 //! `-` for missing values; TAB natively, other separators when re-exported (the shared ETG
 //! file is a pandas comma re-export). Times are milliseconds since the recording started and
 //! become integer microseconds.
-use super::recording::{EyeSample, GazeError, Header, Recording, RowAccount, Sample, SmiFormat};
+use super::recording::{EyeSample, GazeError, GazeFormat, Header, Recording, RowAccount, Sample};
 use super::text::{decode, header_row, lines, number, table_row, Separator};
 
 /// Where an eye's X, Y and (optional) pupil columns are.
@@ -195,7 +195,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     }
     Ok(Recording {
         file: path.to_string(),
-        format: SmiFormat::BeGazeRaw,
+        format: GazeFormat::BeGazeRaw,
         header,
         columns,
         samples,

@@ -5,7 +5,7 @@
 //! comes as `Category` + `Eye L/R`, or as per-eye `Category Left/Right/Binocular` columns.
 //! Written from the documented column names: no real file of this format was available.
 use super::recording::{
-    Event, EventKind, Eye, GazeError, Header, Recording, RowAccount, SmiFormat,
+    Event, EventKind, Eye, GazeError, GazeFormat, Header, Recording, RowAccount,
 };
 use super::text::{
     decode, header_row, is_missing, lines, number, required_column, table_row, Separator,
@@ -91,7 +91,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     let notes = notes_of(&events, sep);
     Ok(Recording {
         file: path.to_string(),
-        format: SmiFormat::EventStatistics,
+        format: GazeFormat::EventStatistics,
         header,
         columns,
         samples: Vec::new(),

@@ -7,7 +7,7 @@ use std::collections::HashMap;
 
 use super::idf_samples::parse_header_line;
 use super::recording::{
-    Event, EventKind, Eye, GazeError, Header, Message, Recording, RowAccount, SmiFormat,
+    Event, EventKind, Eye, GazeError, GazeFormat, Header, Message, Recording, RowAccount,
 };
 use super::text::{integer, lines, message_text, number, split, Separator};
 
@@ -114,7 +114,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     messages.sort_by_key(|m| (m.trial, m.time_us));
     Ok(Recording {
         file: path.to_string(),
-        format: SmiFormat::EventTables,
+        format: GazeFormat::EventTables,
         header,
         columns: columns_all,
         samples: Vec::new(),

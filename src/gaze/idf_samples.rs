@@ -2,7 +2,7 @@
 //! line found by content (`Time` and `Type`), then `SMP` rows (one value per column) and `MSG`
 //! rows (`Time MSG Trial # Message: text`). Columns are picked by name, never by position.
 use super::recording::{
-    EyeSample, GazeError, Header, Message, Recording, RowAccount, Sample, SmiFormat,
+    EyeSample, GazeError, GazeFormat, Header, Message, Recording, RowAccount, Sample,
 };
 use super::text::{integer, lines, number, split, Separator};
 
@@ -118,9 +118,9 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         || left.as_ref().is_some_and(|e| e.event.is_some())
         || right.as_ref().is_some_and(|e| e.event.is_some())
     {
-        SmiFormat::BeGazeSamples
+        GazeFormat::BeGazeSamples
     } else {
-        SmiFormat::IdfSamples
+        GazeFormat::IdfSamples
     };
     let mut notes = Vec::new();
     if left.is_none() && right.is_none() {

@@ -12,8 +12,8 @@ use super::fixations::{
     apply_protocol_filter, fixations, Detector, DetectorParams, EyePolicy, Fate, Fixation,
 };
 use super::quality::{quality, QualityRow};
-use super::read_smi;
-use super::recording::{EyeSample, Header, Recording, RowAccount, SmiFormat};
+use super::read_recording;
+use super::recording::{EyeSample, GazeFormat, Header, Recording, RowAccount};
 use super::stimulus_messages::{
     classify_messages, ClassifiedMessage, Segmentation, StimulusPattern,
 };
@@ -33,7 +33,7 @@ pub struct FilterRules {
 #[derive(Debug, Clone)]
 pub struct IngestParams {
     /// Force a format instead of detecting it.
-    pub format: Option<SmiFormat>,
+    pub format: Option<GazeFormat>,
     /// None: the exporter's events when the file has events and no samples, else I-DT.
     pub detector: Option<Detector>,
     pub eye: EyePolicy,
@@ -103,9 +103,19 @@ pub struct IngestedFile {
     pub warnings: Vec<String>,
 }
 
-/// The detector a file gets when none is asked for.
+/// The detector a file gets when none is asked for: the exporter's events when the file has
+/// events and no samples, or is an event file (C1), or is an EyeLink file with fixation events
+/// (its online parser is the detector EyeLink users report); else I-DT on the samples.
 pub fn default_detector(rec: &Recording) -> Detector {
-    if !rec.events.is_empty() && (rec.samples.is_empty() || rec.format == SmiFormat::EventTables) {
+    let eyelink_fixations = rec.format == GazeFormat::EyelinkAsc
+        && rec
+            .events
+            .iter()
+            .any(|e| e.kind == super::recording::EventKind::Fixation);
+    if eyelink_fixations {
+        return Detector::Events;
+    }
+    if !rec.events.is_empty() && (rec.samples.is_empty() || rec.format == GazeFormat::EventTables) {
         Detector::Events
     } else {
         Detector::IDt
@@ -255,7 +265,7 @@ pub fn why_no_fixations(
 
 /// Reads one export, finds its fixations, applies the protocol's filter and measures quality.
 pub fn ingest_file(path: &Path, params: &IngestParams) -> Result<IngestedFile, String> {
-    let mut rec = read_smi(path, params.format).map_err(|e| e.to_string())?;
+    let mut rec = read_recording(path, params.format).map_err(|e| e.to_string())?;
     let validity_notes = apply_validity_rule(&mut rec, params.validity);
     rec.notes.extend(validity_notes);
     let subject = params
@@ -518,7 +528,7 @@ pub fn message_kind_counts(messages: &[ClassifiedMessage]) -> BTreeMap<&'static 
 #[derive(Serialize)]
 struct IngestFileEntry {
     file: String,
-    format: SmiFormat,
+    format: GazeFormat,
     subject: String,
     detector: Detector,
     header: Header,

@@ -5,7 +5,7 @@
 //! then TAB-separated numeric rows. `Time` is milliseconds; `ScreenH`/`ScreenV` are the gaze
 //! in pixels of the calibration area. One eye, and the file does not say which.
 use super::idf_samples::parse_header_line;
-use super::recording::{EyeSample, GazeError, Header, Recording, RowAccount, Sample, SmiFormat};
+use super::recording::{EyeSample, GazeError, GazeFormat, Header, Recording, RowAccount, Sample};
 use super::text::{decode, lines, number, split, Separator};
 
 /// Whether `head` (the file's first lines) looks like an iView X 2.x sample file.
@@ -147,7 +147,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     ];
     Ok(Recording {
         file: path.to_string(),
-        format: SmiFormat::IviewLegacy,
+        format: GazeFormat::IviewLegacy,
         header,
         columns: names,
         samples,

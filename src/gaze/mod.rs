@@ -1,11 +1,13 @@
-//! SMI RED / iView X / BeGaze text exports: detection and readers (formats A, A', A2, B,
-//! B-fix, C1, C2). Nothing is dropped
-//! silently: every line of a file is a header line, a blank line, a sample, a message, an
-//! event, or counted as unusable with its reason and the position of the first such line.
+//! Gaze recordings: detection and readers for SMI RED / iView X / BeGaze text exports
+//! (formats A, A', A2, B, B-fix, C1, C2) and SR Research EyeLink ASC files, all into one
+//! record model ([`Recording`]). Nothing is dropped silently: every line of a file is a
+//! header line, a blank line, a sample, a message, an event, or counted as unusable with its
+//! reason and the position of the first such line.
 pub mod begaze_fixations;
 pub mod begaze_raw;
 pub mod event_statistics;
 pub mod event_tables;
+pub mod eyelink;
 pub mod fixation_table;
 pub mod fixations;
 pub mod idf_samples;
@@ -21,51 +23,58 @@ pub mod writers;
 use std::path::Path;
 
 pub use recording::{
-    Event, EventKind, Eye, EyeSample, GazeError, Message, Recording, Sample, SmiFormat,
+    Event, EventKind, Eye, EyeSample, GazeError, GazeFormat, Message, Recording, Sample,
 };
 
 use crate::file_bytes::{read_maybe_gzipped, ReadError};
 
-/// Which SMI format the bytes are, from their first lines; None when none fits.
-pub fn detect_format(bytes: &[u8]) -> Result<SmiFormat, String> {
+/// Which format the bytes are, from their content (never the file name); an error saying
+/// what was expected when none fits.
+pub fn detect_format(bytes: &[u8]) -> Result<GazeFormat, String> {
+    if eyelink::looks_like_edf(bytes) {
+        return Err(eyelink::edf_refusal());
+    }
     let head = String::from_utf8_lossy(&bytes[..bytes.len().min(65536)]);
     let head = head.trim_start_matches('\u{feff}');
     let first = head.lines().next().unwrap_or("").trim();
+    if eyelink::looks_like(head) {
+        return Ok(GazeFormat::EyelinkAsc);
+    }
     if iview_legacy::looks_like(head) {
-        return Ok(SmiFormat::IviewLegacy);
+        return Ok(GazeFormat::IviewLegacy);
     }
     if head.contains("Table Header for") {
-        return Ok(SmiFormat::EventTables);
+        return Ok(GazeFormat::EventTables);
     }
     if first.starts_with("##") || head.lines().any(|l| l.starts_with("Time\tType\t")) {
         return Ok(
             if first.contains("[BeGaze]") || head.contains("Event Info") {
-                SmiFormat::BeGazeSamples
+                GazeFormat::BeGazeSamples
             } else {
-                SmiFormat::IdfSamples
+                GazeFormat::IdfSamples
             },
         );
     }
     if first.contains("RecordingTime [ms]") {
-        return Ok(SmiFormat::BeGazeRaw);
+        return Ok(GazeFormat::BeGazeRaw);
     }
     if first.contains("Event Start Trial Time [ms]") {
-        return Ok(SmiFormat::EventStatistics);
+        return Ok(GazeFormat::EventStatistics);
     }
     if begaze_fixations::SIGNATURE
         .iter()
         .all(|c| first.contains(c))
     {
-        return Ok(SmiFormat::BeGazeFixations);
+        return Ok(GazeFormat::BeGazeFixations);
     }
-    Err("not a recognized SMI export: expected a `## [iView]`/`## [BeGaze]` sample file (A, A'), an iView X 2.x `#FileVersion: 2` sample file (A2), a `Table Header for …` event file (C1), a BeGaze Raw Data table (`RecordingTime [ms]`, C2), an Event Statistics table (`Event Start Trial Time [ms]`, B) or a BeGaze fixation table (`Fixation Start [ms]`, B-fix)".into())
+    Err("not a recognized gaze recording: expected an EyeLink ASC file (`** CONVERTED FROM … edf`, `MSG`/`START`/`SAMPLES` lines), or an SMI export: a `## [iView]`/`## [BeGaze]` sample file (A, A'), an iView X 2.x `#FileVersion: 2` sample file (A2), a `Table Header for …` event file (C1), a BeGaze Raw Data table (`RecordingTime [ms]`, C2), an Event Statistics table (`Event Start Trial Time [ms]`, B) or a BeGaze fixation table (`Fixation Start [ms]`, B-fix)".into())
 }
 
 /// Reads bytes as `format` (detected when None); `path` is for messages.
-pub fn parse_smi(
+pub fn parse_recording(
     bytes: &[u8],
     path: &str,
-    format: Option<SmiFormat>,
+    format: Option<GazeFormat>,
 ) -> Result<Recording, GazeError> {
     let format = match format {
         Some(f) => f,
@@ -75,21 +84,22 @@ pub fn parse_smi(
         })?,
     };
     let mut r = match format {
-        SmiFormat::IdfSamples | SmiFormat::BeGazeSamples => idf_samples::read(bytes, path)?,
-        SmiFormat::EventTables => event_tables::read(bytes, path)?,
-        SmiFormat::BeGazeRaw => begaze_raw::read(bytes, path)?,
-        SmiFormat::EventStatistics => event_statistics::read(bytes, path)?,
-        SmiFormat::BeGazeFixations => begaze_fixations::read(bytes, path)?,
-        SmiFormat::IviewLegacy => iview_legacy::read(bytes, path)?,
+        GazeFormat::IdfSamples | GazeFormat::BeGazeSamples => idf_samples::read(bytes, path)?,
+        GazeFormat::EventTables => event_tables::read(bytes, path)?,
+        GazeFormat::BeGazeRaw => begaze_raw::read(bytes, path)?,
+        GazeFormat::EventStatistics => event_statistics::read(bytes, path)?,
+        GazeFormat::BeGazeFixations => begaze_fixations::read(bytes, path)?,
+        GazeFormat::IviewLegacy => iview_legacy::read(bytes, path)?,
+        GazeFormat::EyelinkAsc => eyelink::read(bytes, path)?,
     };
-    if format == SmiFormat::BeGazeSamples {
-        r.format = SmiFormat::BeGazeSamples;
+    if format == GazeFormat::BeGazeSamples {
+        r.format = GazeFormat::BeGazeSamples;
     }
     Ok(r)
 }
 
-/// Reads an SMI export file (gzip allowed).
-pub fn read_smi(path: &Path, format: Option<SmiFormat>) -> Result<Recording, GazeError> {
+/// Reads a gaze recording of any supported format (gzip allowed).
+pub fn read_recording(path: &Path, format: Option<GazeFormat>) -> Result<Recording, GazeError> {
     let p = path.display().to_string();
     let bytes = read_maybe_gzipped(path).map_err(|e| match e {
         ReadError::Io(source) => GazeError::Io {
@@ -101,5 +111,5 @@ pub fn read_smi(path: &Path, format: Option<SmiFormat>) -> Result<Recording, Gaz
             message: format!("gzip data is corrupt: {e}"),
         },
     })?;
-    parse_smi(&bytes, &p, format)
+    parse_recording(&bytes, &p, format)
 }

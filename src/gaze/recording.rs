@@ -1,4 +1,4 @@
-//! What an SMI export holds, in one normalized form whatever the format: samples (both eyes),
+//! What a gaze recording holds (SMI exports and the other trackers' files alike), in one normalized form whatever the format: samples (both eyes),
 //! messages, events, the header, and an account of every row.
 use std::collections::BTreeMap;
 
@@ -7,7 +7,7 @@ use serde::Serialize;
 /// The export formats (names as in shared/docs/smi-formats.md).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
-pub enum SmiFormat {
+pub enum GazeFormat {
     /// IDF Converter sample text: `## [iView]` header, TSV, `Time` in µs, `MSG` rows.
     #[cfg_attr(feature = "cli", value(name = "a"))]
     #[serde(rename = "A")]
@@ -38,6 +38,11 @@ pub enum SmiFormat {
     #[cfg_attr(feature = "cli", value(name = "a2"))]
     #[serde(rename = "A2")]
     IviewLegacy,
+    /// SR Research EyeLink ASC text (edf2asc): `START`/`END` blocks, `SAMPLES`/`EVENTS`
+    /// layout lines, `EFIX`/`ESACC`/`EBLINK` events, `MSG` lines.
+    #[cfg_attr(feature = "cli", value(name = "eyelink"))]
+    #[serde(rename = "EyeLink ASC")]
+    EyelinkAsc,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
@@ -200,7 +205,7 @@ impl RowAccount {
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Recording {
     pub file: String,
-    pub format: SmiFormat,
+    pub format: GazeFormat,
     pub header: Header,
     /// Column names of the sample table, or of each event table.
     pub columns: Vec<String>,

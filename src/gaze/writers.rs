@@ -1,4 +1,5 @@
-//! Writers for format A (IDF Converter sample text) and C1 (IDF Event Detector event text),
+//! Writers for SMI format A (IDF Converter sample text) and C1 (IDF Event Detector event text)
+//! and for EyeLink ASC text,
 //! so simulated observers produce the same files a lab's tracker does. Reading what they
 //! write gives back the same samples, messages, events and header facts (numbers are printed
 //! in Rust's shortest exact form). An eye at exactly (0, 0) reads back invalid: that is SMI's
@@ -151,5 +152,164 @@ pub fn write_events_c1(header: &Header, events: &[Event], messages: &[Message]) 
             EventKind::Blink => writeln!(s, "{}", head("Blink")),
         };
     }
+    s
+}
+
+/// A time in µs as EyeLink writes it: milliseconds, with the fraction only when there is one
+/// (`2154556`, `2154556.5`), exact for whole µs.
+fn eyelink_ms(t_us: i64) -> String {
+    let (ms, us) = (t_us.div_euclid(1000), t_us.rem_euclid(1000));
+    if us == 0 {
+        format!("{ms}")
+    } else {
+        format!("{ms}.{us:03}").trim_end_matches('0').to_string()
+    }
+}
+
+/// EyeLink ASC text, as edf2asc writes a binocular GAZE recording in one block: the `**`
+/// preamble, `GAZE_COORDS` (last pixel, SR Research's form) from the calibration area,
+/// `START`, the `SAMPLES`/`EVENTS` layout, then messages, sample rows and events merged in
+/// time order (an event's `S…` line at its start, its `E…` line after its last sample), and
+/// `END`. Lost eyes are `.`; messages keep their text. The subject is the file's name: ASC
+/// has no subject field.
+pub fn write_eyelink_asc(
+    header: &Header,
+    samples: &[Sample],
+    events: &[Event],
+    messages: &[Message],
+) -> String {
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "** CONVERTED FROM virtual-observer.edf using meshgaze {}",
+        env!("CARGO_PKG_VERSION")
+    );
+    if let Some(d) = header.date {
+        let _ = writeln!(s, "** DATE: {}", d.format("%a %b %e %H:%M:%S %Y"));
+    }
+    s.push_str("** TYPE: EDF_FILE BINARY EVENT SAMPLE TAGGED\n** VERSION: EYELINK II 1\n** SOURCE: meshgaze virtual observer\n**\n\n");
+    let first = samples
+        .first()
+        .map(|x| x.time_us)
+        .into_iter()
+        .chain(messages.iter().map(|m| m.time_us))
+        .chain(events.iter().map(|e| e.start_us))
+        .min()
+        .unwrap_or(0);
+    let last = samples
+        .last()
+        .map(|x| x.time_us)
+        .into_iter()
+        .chain(messages.iter().map(|m| m.time_us))
+        .chain(events.iter().map(|e| e.end_us))
+        .max()
+        .unwrap_or(0);
+    let t0 = eyelink_ms(first);
+    if let Some([w, h]) = header.calibration_area_px {
+        let _ = writeln!(
+            s,
+            "MSG\t{t0} GAZE_COORDS 0.00 0.00 {:.2} {:.2}",
+            w - 1.0,
+            h - 1.0
+        );
+    }
+    let rate = header.sample_rate_hz.unwrap_or(250.0);
+    let _ = writeln!(s, "START\t{t0} \tLEFT\tRIGHT\tSAMPLES\tEVENTS");
+    s.push_str("PRESCALER\t1\nVPRESCALER\t1\nPUPIL\tDIAMETER\n");
+    let _ = writeln!(
+        s,
+        "EVENTS\tGAZE\tLEFT\tRIGHT\tRATE\t{rate:7.2}\tTRACKING\tCR\tFILTER\t2"
+    );
+    let _ = writeln!(
+        s,
+        "SAMPLES\tGAZE\tLEFT\tRIGHT\tRATE\t{rate:7.2}\tTRACKING\tCR\tFILTER\t2"
+    );
+    // (time, order within a time, text): messages, then event starts, samples, event ends.
+    let mut body: Vec<(i64, u8, usize, String)> = Vec::new();
+    for (k, m) in messages.iter().enumerate() {
+        let text = m.text.replace(['\n', '\r'], " ");
+        // A text starting with an integer word would read back as a time offset: say 0.
+        let first = text.split([' ', '\t']).next().unwrap_or("");
+        let first = first.strip_prefix('-').unwrap_or(first);
+        let offset = if !first.is_empty() && first.bytes().all(|b| b.is_ascii_digit()) {
+            "0 "
+        } else {
+            ""
+        };
+        body.push((
+            m.time_us,
+            0,
+            k,
+            format!("MSG\t{} {offset}{text}", eyelink_ms(m.time_us)),
+        ));
+    }
+    let mut sorted: Vec<&Event> = events.iter().filter(|e| e.eye != Eye::Binocular).collect();
+    sorted.sort_by_key(|e| (e.start_us, e.eye, e.number));
+    for (k, e) in sorted.iter().enumerate() {
+        let eye = if e.eye == Eye::Left { "L" } else { "R" };
+        let key = match e.kind {
+            EventKind::Fixation => "FIX",
+            EventKind::Saccade => "SACC",
+            EventKind::Blink => "BLINK",
+        };
+        let v = |x: Option<f64>| x.map_or("   .".to_string(), |x| format!("{x}"));
+        let head = format!(
+            "E{key} {eye} {}\t{}\t{}",
+            eyelink_ms(e.start_us),
+            eyelink_ms(e.end_us),
+            eyelink_ms(e.duration_us)
+        );
+        let end_line = match e.kind {
+            EventKind::Fixation => format!(
+                "{head}\t{}\t{}\t{}",
+                v(e.x),
+                v(e.y),
+                e.pupil_x.map_or("0".to_string(), |p| format!("{p}"))
+            ),
+            EventKind::Saccade => format!(
+                "{head}\t{}\t{}\t{}\t{}\t0.00\t0",
+                v(e.x),
+                v(e.y),
+                v(e.end_x),
+                v(e.end_y)
+            ),
+            EventKind::Blink => head,
+        };
+        body.push((
+            e.start_us,
+            1,
+            k,
+            format!("S{key} {eye} {}", eyelink_ms(e.start_us)),
+        ));
+        body.push((e.end_us, 3, k, end_line));
+    }
+    for (k, p) in samples.iter().enumerate() {
+        let eye = |e: Option<super::recording::EyeSample>| match e {
+            Some(e) if e.valid => format!(
+                "{}\t{}\t{}",
+                e.x,
+                e.y,
+                e.pupil.map_or("0.0".to_string(), |v| format!("{v}"))
+            ),
+            _ => "   .\t   .\t    0.0".to_string(),
+        };
+        body.push((
+            p.time_us,
+            2,
+            k,
+            format!(
+                "{}\t{}\t{}\t.....",
+                eyelink_ms(p.time_us),
+                eye(p.left),
+                eye(p.right)
+            ),
+        ));
+    }
+    body.sort_by_key(|(t, order, k, _)| (*t, *order, *k));
+    for (_, _, _, line) in body {
+        s.push_str(&line);
+        s.push('\n');
+    }
+    let _ = writeln!(s, "END\t{} \tSAMPLES\tEVENTS", eyelink_ms(last));
     s
 }

@@ -162,6 +162,7 @@ struct SimulationSidecar<'a> {
     stimulus_name: &'a str,
     model: &'a str,
     parameters: &'a ObserverParams,
+    recording_format: RecordingFormat,
     subjects: Vec<SubjectFacts>,
 }
 
@@ -173,12 +174,57 @@ struct SubjectFacts {
     lost_samples: usize,
     fixations: usize,
     fixations_with_target: usize,
-    files: [String; 2],
+    files: Vec<String>,
 }
 
-/// Writes each subject's recording as SMI format A (`sNN_samples.txt`) and C1
-/// (`sNN_events.txt`), the true fixations (`targets.csv`) and `simulate.json` (provenance from
-/// `inputs`, the target model and parameters, per-subject facts) into `dir`.
+/// The tracker whose files the virtual observers write.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[serde(rename_all = "lowercase")]
+pub enum RecordingFormat {
+    /// SMI RED250: format A samples (`sNN_samples.txt`) and C1 events (`sNN_events.txt`).
+    #[default]
+    Smi,
+    /// SR Research EyeLink: one ASC file per subject (`sNN.asc`), samples, events and
+    /// messages as edf2asc writes them.
+    Eyelink,
+}
+
+impl RecordingFormat {
+    /// The files subject `id`'s recording is written to, with their text.
+    pub fn files(
+        self,
+        id: &str,
+        header: &Header,
+        samples: &[Sample],
+        events: &[Event],
+        messages: &[Message],
+    ) -> Vec<(String, String)> {
+        use crate::gaze::writers::{write_events_c1, write_eyelink_asc, write_samples_a};
+        match self {
+            RecordingFormat::Smi => vec![
+                (
+                    format!("{id}_samples.txt"),
+                    write_samples_a(header, samples, messages),
+                ),
+                (
+                    format!("{id}_events.txt"),
+                    write_events_c1(header, events, messages),
+                ),
+            ],
+            RecordingFormat::Eyelink => vec![(
+                format!("{id}.asc"),
+                write_eyelink_asc(header, samples, events, messages),
+            )],
+        }
+    }
+}
+
+/// Writes each subject's recording in `format` (SMI: format A `sNN_samples.txt` and C1
+/// `sNN_events.txt`; EyeLink: `sNN.asc`), the true fixations (`targets.csv`) and
+/// `simulate.json` (provenance from `inputs`, the target model and parameters, per-subject
+/// facts) into `dir`.
+#[allow(clippy::too_many_arguments)]
 pub fn write_simulation(
     dir: &std::path::Path,
     subjects: &[VirtualSubject],
@@ -186,19 +232,19 @@ pub fn write_simulation(
     stimulus_name: &str,
     model_name: &str,
     params: &ObserverParams,
+    format: RecordingFormat,
 ) -> Result<(), String> {
-    use crate::gaze::writers::{write_events_c1, write_samples_a};
     crate::file_bytes::create_output_dir(dir).map_err(|e| format!("{e:#}"))?;
-    let write = |name: &str, text: String| {
+    let write = |name: &str, text: &str| {
         let p = dir.join(name);
         std::fs::write(&p, text).map_err(|e| format!("cannot write {}: {e}", p.display()))
     };
     let mut facts = Vec::new();
     for s in subjects {
-        let a = format!("{}_samples.txt", s.id);
-        let c = format!("{}_events.txt", s.id);
-        write(&a, write_samples_a(&s.header, &s.samples, &s.messages))?;
-        write(&c, write_events_c1(&s.header, &s.events, &s.messages))?;
+        let files = format.files(&s.id, &s.header, &s.samples, &s.events, &s.messages);
+        for (name, text) in &files {
+            write(name, text)?;
+        }
         facts.push(SubjectFacts {
             id: s.id.clone(),
             head_distance_mm: s.head_distance_mm,
@@ -210,7 +256,7 @@ pub fn write_simulation(
                 .count(),
             fixations: s.fixations.len(),
             fixations_with_target: s.fixations.iter().filter(|f| f.vertex.is_some()).count(),
-            files: [a, c],
+            files: files.into_iter().map(|(name, _)| name).collect(),
         });
     }
     let tp = dir.join("targets.csv");
@@ -222,10 +268,11 @@ pub fn write_simulation(
         stimulus_name,
         model: model_name,
         parameters: params,
+        recording_format: format,
         subjects: facts,
     };
     let json = serde_json::to_string_pretty(&sidecar).map_err(|e| e.to_string())? + "\n";
-    write("simulate.json", json)
+    write("simulate.json", &json)
 }
 
 /// Simulates `params.subjects` observers. Deterministic for a seed; subjects are independent

@@ -19,7 +19,8 @@ use crate::saliency::{SmsParams, PAPER_METHODS};
 use crate::scoring::dataset::{write_score_rows, SCORE_CSV_HEADER};
 use crate::scoring::{score_mesh, MeshScore, ScoreParams};
 use crate::simulate::{
-    extremity_map, simulate_observers, write_simulation, ObserverParams, TargetModel,
+    extremity_map, simulate_observers, write_simulation, ObserverParams, RecordingFormat,
+    TargetModel,
 };
 use crate::stimulus::load::{load_stimulus, LoadedStimulus};
 use crate::stimulus::{render_stimulus, FrameImages, StimulusOptions};
@@ -274,6 +275,7 @@ fn simulate_step(stim: &LoadedStimulus, rec_dir: &Path, subjects: usize, seed: u
         &stimulus_name,
         "extremity (distance from the centroid)",
         &params,
+        RecordingFormat::Smi,
     )
     .map_err(anyhow::Error::msg)
 }

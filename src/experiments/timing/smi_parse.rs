@@ -47,11 +47,12 @@ pub fn smi_parse_speed(data: &Path) -> Result<SmiParseSpeed, TimingError> {
         }
     }
     let start = std::time::Instant::now();
-    let rec =
-        crate::gaze::parse_smi(big.as_bytes(), "bench", None).map_err(|e| TimingError::Step {
+    let rec = crate::gaze::parse_recording(big.as_bytes(), "bench", None).map_err(|e| {
+        TimingError::Step {
             step: "the SMI parse".to_string(),
             message: e.to_string(),
-        })?;
+        }
+    })?;
     Ok(SmiParseSpeed {
         bytes: big.len(),
         samples: rec.samples.len(),
