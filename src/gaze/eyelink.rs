@@ -728,24 +728,41 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             r.trial = ended as u32 + 1;
         }
     }
-    if r.rows.samples == 0 && r.rows.events == 0 && r.rows.messages == 0 {
-        return Err(GazeError::File {
-            path: path.to_string(),
-            message: "an EyeLink ASC file without samples, events or messages".into(),
-        });
-    }
-    let layouts_not_gaze = r
+    let not_gaze = r
         .rows
         .unusable
-        .keys()
-        .find(|k| k.starts_with("HREF sample") || k.starts_with("PUPIL sample"))
-        .cloned();
+        .iter()
+        .find(|(k, _)| k.starts_with("HREF sample") || k.starts_with("PUPIL sample"))
+        .map(|(k, f)| format!("{k} ({} lines, the first at line {})", f.count, f.line));
+    let first_unusable = r
+        .rows
+        .unusable
+        .iter()
+        .min_by_key(|(_, f)| f.line)
+        .map(|(k, f)| {
+            format!(
+                "{k} ({} lines, the first at line {}: `{}`)",
+                f.count, f.line, f.example
+            )
+        });
     let rec = r.finish();
-    if rec.samples.is_empty() && rec.events.iter().all(|e| e.kind != EventKind::Fixation) {
-        if let Some(reason) = layouts_not_gaze {
+    let has_fixations = rec.events.iter().any(|e| e.kind == EventKind::Fixation);
+    if rec.samples.is_empty() && !has_fixations {
+        if let Some(reason) = not_gaze {
             return Err(GazeError::File {
                 path: path.to_string(),
                 message: format!("no screen positions in this file: every {reason}"),
+            });
+        }
+        if rec.messages.is_empty() && rec.events.is_empty() {
+            return Err(GazeError::File {
+                path: path.to_string(),
+                message: match first_unusable {
+                    Some(why) => format!(
+                        "an EyeLink ASC file with no usable sample, event or message: {why}"
+                    ),
+                    None => "an EyeLink ASC file without samples, events or messages".into(),
+                },
             });
         }
     }
