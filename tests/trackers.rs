@@ -101,3 +101,125 @@ fn every_eyelink_asc_gives_fixations_with_default_settings() {
         );
     }
 }
+
+mod eyelink_properties {
+    use meshgaze::gaze::recording::{EyeSample, Header, Message, Sample};
+    use meshgaze::gaze::writers::write_eyelink_asc;
+    use meshgaze::gaze::{parse_recording, GazeFormat};
+    use proptest::prelude::*;
+
+    fn eye(x: f64, y: f64, lost: bool) -> EyeSample {
+        EyeSample {
+            x: if lost { 0.0 } else { x },
+            y: if lost { 0.0 } else { y },
+            pupil: if lost { None } else { Some(3.25) },
+            valid: !lost,
+            flag_lost: lost,
+        }
+    }
+
+    fn header() -> Header {
+        Header {
+            sample_rate_hz: Some(2000.0),
+            calibration_area_px: Some([1680.0, 1050.0]),
+            ..Header::default()
+        }
+    }
+
+    /// A small binocular recording as the writer makes it, for mutation.
+    fn base_file() -> String {
+        let samples: Vec<Sample> = (0..40)
+            .map(|k| Sample {
+                time_us: 1_000_000 + k * 500,
+                trial: 1,
+                left: Some(eye(100.0 + k as f64, 200.5, k % 9 == 4)),
+                right: Some(eye(101.0, 199.25, k % 7 == 3)),
+                binocular: None,
+                binocular_event: None,
+                left_event: None,
+                right_event: None,
+                stimulus: None,
+            })
+            .collect();
+        let messages = vec![Message {
+            time_us: 1_000_000,
+            trial: 1,
+            text: "bunny.mp4".into(),
+        }];
+        write_eyelink_asc(&header(), &samples, &[], &messages)
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+        /// What the writer writes reads back exactly: times (half-milliseconds included),
+        /// positions, lost eyes and message texts, whatever the texts say.
+        #[test]
+        fn written_asc_reads_back_exactly(
+            points in proptest::collection::vec((0u32..4000, -50_000i32..250_000, -50_000i32..150_000, any::<bool>()), 1..60),
+            texts in proptest::collection::vec("[A-Za-z0-9_./:!-]{1,12}( [A-Za-z0-9_./:!-]{1,12}){0,3}", 0..6),
+        ) {
+            let mut t = 5_000_000i64;
+            let samples: Vec<Sample> = points.iter().map(|&(dt, x, y, lost)| {
+                t += 500 + dt as i64 * 500;
+                Sample {
+                    time_us: t,
+                    trial: 1,
+                    left: Some(eye(x as f64 / 100.0, y as f64 / 100.0, lost)),
+                    right: None,
+                    binocular: None,
+                    binocular_event: None,
+                    left_event: None,
+                    right_event: None,
+                    stimulus: None,
+                }
+            }).collect();
+            let messages: Vec<Message> = texts.iter().enumerate().map(|(k, text)| Message {
+                time_us: 5_000_000 + k as i64 * 1500,
+                trial: 1,
+                text: text.clone(),
+            }).collect();
+            let text = write_eyelink_asc(&header(), &samples, &[], &messages);
+            let r = parse_recording(text.as_bytes(), "p.asc", None).unwrap();
+            prop_assert_eq!(r.format, GazeFormat::EyelinkAsc);
+            prop_assert_eq!(r.rows.unusable_total(), 0);
+            prop_assert_eq!(r.rows.accounted(), r.rows.lines);
+            prop_assert_eq!(r.samples.len(), samples.len());
+            for (a, b) in r.samples.iter().zip(&samples) {
+                prop_assert_eq!(a.time_us, b.time_us);
+                let (ea, eb) = (a.left.unwrap(), b.left.unwrap());
+                prop_assert_eq!((ea.valid, ea.x, ea.y), (eb.valid, eb.x, eb.y));
+            }
+            let got: Vec<(i64, &str)> = r.messages.iter().filter(|m| !m.text.starts_with("GAZE_COORDS")).map(|m| (m.time_us, m.text.as_str())).collect();
+            let want: Vec<(i64, &str)> = messages.iter().map(|m| (m.time_us, m.text.as_str())).collect();
+            prop_assert_eq!(got, want);
+        }
+
+        /// Damaged files never panic, and every line is still a header, blank, sample,
+        /// message, event or counted unusable line.
+        #[test]
+        fn damaged_asc_never_panics_and_accounts_for_every_line(
+            seed in any::<u64>(),
+            edits in 1usize..30,
+        ) {
+            let mut bytes = base_file().into_bytes();
+            let mut s = seed;
+            for _ in 0..edits {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                let at = (s >> 33) as usize % bytes.len();
+                let alphabet = b"\t\n .-5LRE*M";
+                let what = alphabet[(s >> 20) as usize % alphabet.len()];
+                match s % 3 {
+                    0 => bytes[at] = what,
+                    1 => bytes.insert(at, what),
+                    _ => {
+                        bytes.remove(at);
+                    }
+                }
+            }
+            if let Ok(r) = parse_recording(&bytes, "damaged.asc", Some(GazeFormat::EyelinkAsc)) {
+                prop_assert_eq!(r.rows.accounted(), r.rows.lines);
+                prop_assert_eq!(r.samples.len(), r.rows.samples);
+            }
+        }
+    }
+}

@@ -5,8 +5,8 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 
 use meshgaze::experiments::timing::{
-    paper_case, run_case, run_cell_in_child, smi_parse_speed, stimulus_cell, CaseResult,
-    StimulusCell, COMPETITORS, PAPER_CASES,
+    eyelink_parse_speed, paper_case, run_case, run_cell_in_child, smi_parse_speed, stimulus_cell,
+    CaseResult, StimulusCell, COMPETITORS, PAPER_CASES,
 };
 use meshgaze::saliency::Method;
 
@@ -46,6 +46,9 @@ pub struct BenchArgs {
     /// Skip the stimulus benchmark (a 48 s 1680x1050 video of the 50k armadillo, ~30 s).
     #[arg(long)]
     pub skip_stimulus: bool,
+    /// Only the recording readers' parse speed (SMI format A, EyeLink ASC), a few seconds.
+    #[arg(long, conflicts_with_all = ["case", "method", "csv"])]
+    pub parse_only: bool,
 }
 
 /// The data folder: --data, else the first default place holding meshes/classic; the error
@@ -83,6 +86,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let data = data_folder(args.data.as_deref())?;
     if args.child {
         return run_child(&args, &data);
+    }
+    if args.parse_only {
+        return print_smi_parse(&data);
     }
     check_cell(&args)?;
     let exe = std::env::current_exe().context("cannot find the meshgaze executable")?;
@@ -328,6 +334,7 @@ fn print_stimulus(exe: &Path, data: &Path) -> Result<()> {
     Ok(())
 }
 
+/// The readers' parse speed, per sample, at the same scale (about 1.1 million samples each).
 fn print_smi_parse(data: &Path) -> Result<()> {
     let s = smi_parse_speed(data)?;
     println!(
@@ -336,6 +343,15 @@ fn print_smi_parse(data: &Path) -> Result<()> {
         s.samples,
         s.seconds,
         s.samples as f64 / s.seconds / 1e6
+    );
+    let e = eyelink_parse_speed(data)?;
+    println!(
+        "EyeLink ASC parse (syelink samples repeated, {:.0} MB in memory): {} samples in {:.2} s = {:.2} million samples/s ({:.2}x SMI format A per sample)",
+        e.bytes as f64 / 1e6,
+        e.samples,
+        e.seconds,
+        e.samples as f64 / e.seconds / 1e6,
+        (e.samples as f64 / e.seconds) / (s.samples as f64 / s.seconds)
     );
     Ok(())
 }

@@ -16,9 +16,12 @@ use meshgaze::gaze::validity::ValidityRule;
 use meshgaze::gaze::{read_recording, GazeFormat};
 use meshgaze::protocol::Protocol;
 
-/// Read SMI eye-tracker exports, find fixations, apply the protocol's filter, report quality.
+/// Read eye-tracker recordings (SMI, EyeLink), find fixations, apply the protocol's filter,
+/// report quality.
 ///
-/// Reads IDF Converter sample text (format A, `## [iView]`), BeGaze sample exports (A'),
+/// Reads SR Research EyeLink ASC files (edf2asc text, plain or .gz: monocular or binocular,
+/// any sample rate, remote mode; an EDF binary must be converted with edf2asc first), and SMI
+/// exports: IDF Converter sample text (format A, `## [iView]`), BeGaze sample exports (A'),
 /// iView X 2.x sample files (A2, `#FileVersion: 2`, one eye, ms times), IDF Event Detector /
 /// BeGaze event text (C1, `Table Header for …`; TAB, comma or the space-damaged variant),
 /// BeGaze Raw Data (C2), BeGaze Event Statistics (B; separator and decimal comma sniffed) and
@@ -28,7 +31,9 @@ use meshgaze::protocol::Protocol;
 /// with the line and column of the first one.
 ///
 /// Fixations come from the exporter's events (--detector events, the default for files with
-/// events and no samples: C1, B) or are detected in samples (i-dt, the default for A; i-vt).
+/// events and no samples: C1, B, and for EyeLink files, whose EFIX events are the tracker's
+/// own parser) or are detected in samples (i-dt, the default for A; i-vt). EyeLink message
+/// offsets (`MSG 1000 -14 text`) are applied; GAZE_COORDS gives the screen.
 ///
 /// A message starts a stimulus when it names an image or video file (`bunny.mp4`, a Windows
 /// path ending in `mtemo33.png`, `Elmos World.avi`), or matches --stimulus-pattern. Every other
@@ -51,7 +56,7 @@ use meshgaze::protocol::Protocol;
 /// headers, row accounts, message kinds, parameters) and with --samples DIR/samples.csv.
 #[derive(Debug, Args)]
 pub struct IngestArgs {
-    /// SMI export files.
+    /// Recording files (SMI exports, EyeLink .asc), gzip allowed.
     #[arg(required = true)]
     pub files: Vec<PathBuf>,
     /// Output folder (not needed with --list-messages).
@@ -74,7 +79,8 @@ pub struct IngestArgs {
     /// Force the format instead of detecting it.
     #[arg(long, value_enum)]
     pub format: Option<GazeFormat>,
-    /// Where fixations come from (default: events for event files, i-dt for sample files).
+    /// Where fixations come from (default: events for event files and EyeLink, i-dt for
+    /// sample files).
     #[arg(long, value_enum)]
     pub detector: Option<Detector>,
     /// Which eye's gaze to use (best: the eye the file has, or of two the one with more

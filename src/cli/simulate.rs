@@ -18,11 +18,13 @@ use meshgaze::truth::{load_ground_truth, GroundTruth};
 
 use super::progress_bar::Bars;
 
-/// Simulate virtual observers watching a stimulus: SMI recordings with known answers.
+/// Simulate virtual observers watching a stimulus: tracker recordings with known answers.
 ///
 /// Each virtual subject gets a format A sample file (IDF Converter text at 250 Hz: both
 /// eyes, blinks as SMI's (0, 0), messages at stimulus onset) and a format C1 event file (IDF
 /// Event Detector text), as a RED250 lab would export them; `meshgaze ingest` reads both.
+/// With --recording-format eyelink each subject gets one EyeLink ASC file (sNN.asc: samples,
+/// EFIX/ESACC/EBLINK events and messages, as edf2asc writes them) instead.
 /// targets.csv records the true target vertex of every fixation, so the pipeline ingest →
 /// filter → project can be checked against the truth.
 ///

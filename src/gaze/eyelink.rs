@@ -183,7 +183,11 @@ fn value(field: &str) -> Result<Option<f64>, ()> {
     if f == "." || f.is_empty() {
         return Ok(None);
     }
-    f.parse::<f64>().map(Some).map_err(|_| ())
+    // `inf` and `NaN` parse as f64 but are no position EyeLink writes.
+    match f.parse::<f64>() {
+        Ok(v) if v.is_finite() => Ok(Some(v)),
+        _ => Err(()),
+    }
 }
 
 /// Whitespace-separated fields with their 1-based columns.
