@@ -223,3 +223,85 @@ mod eyelink_properties {
         }
     }
 }
+
+/// Distinct fixation indices of a Tobii table, counted here from the named columns.
+fn tobii_fixation_indices(
+    text: &str,
+    sep: char,
+    kind: &str,
+    index: &str,
+    sensor: Option<&str>,
+) -> usize {
+    let mut lines = text.trim_start_matches('\u{feff}').lines();
+    let header: Vec<&str> = lines.next().unwrap().split(sep).collect();
+    let col = |n: &str| header.iter().position(|c| c.trim() == n).unwrap();
+    let (k, i) = (col(kind), col(index));
+    let s = sensor.map(col);
+    let mut seen = std::collections::BTreeSet::new();
+    for l in lines {
+        let f: Vec<&str> = l.split(sep).collect();
+        let gaze_row = s.is_none_or(|s| f.get(s) == Some(&"Eye Tracker"));
+        if gaze_row && f.get(k) == Some(&"Fixation") && !f[i].is_empty() {
+            seen.insert(f[i].to_string());
+        }
+    }
+    seen.len()
+}
+
+#[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
+fn tobii_pro_lab_and_studio_exports_give_their_fixations() {
+    let dir = common::shared_data().join("trackers/tobii");
+    for (file, format, sep, kind, index, sensor) in [
+        (
+            "tobii-pro__all_gaze.csv",
+            GazeFormat::TobiiProLab,
+            ',',
+            "Eye movement type",
+            "Eye movement type index",
+            Some("Sensor"),
+        ),
+        (
+            "d2lab__studio_data.tsv",
+            GazeFormat::TobiiStudio,
+            '\t',
+            "GazeEventType",
+            "FixationIndex",
+            None,
+        ),
+    ] {
+        let path = dir.join(file);
+        let text = String::from_utf8_lossy(&std::fs::read(&path).unwrap()).to_string();
+        let f = ingest_file(&path, &params()).unwrap_or_else(|e| panic!("{e}"));
+        let r = &f.recording;
+        assert_eq!(r.format, format, "{file}");
+        assert_eq!(r.rows.accounted(), r.rows.lines, "{file}");
+        let expected = tobii_fixation_indices(&text, sep, kind, index, sensor);
+        assert_eq!(
+            r.events.len(),
+            expected,
+            "{file}: one event per fixation index"
+        );
+        assert_eq!(f.detector, Detector::Events, "{file}");
+        let usable = f
+            .fixations
+            .iter()
+            .filter(|x| x.fate != Fate::Invalid)
+            .count();
+        let kept = f.fixations.iter().filter(|x| x.fate == Fate::Kept).count();
+        assert!(
+            usable > 0 && kept > 0,
+            "{file}: {:?} {:?}",
+            f.warnings,
+            r.notes
+        );
+        assert!(r.header.calibration_area_px.is_some(), "{file}: the screen");
+        eprintln!(
+            "{file}: {} samples, {} fixations ({usable} usable, {kept} kept), unusable {:?}, notes {:?}",
+            r.samples.len(),
+            r.events.len(),
+            r.rows.unusable.iter().map(|(k, v)| (k.as_str(), v.count)).collect::<Vec<_>>(),
+            r.notes
+        );
+    }
+}

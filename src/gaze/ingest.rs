@@ -104,10 +104,15 @@ pub struct IngestedFile {
 }
 
 /// The detector a file gets when none is asked for: the exporter's events when the file has
-/// events and no samples, or is an event file (C1), or is an EyeLink file with fixation events
-/// (its online parser is the detector EyeLink users report); else I-DT on the samples.
+/// events and no samples, or is an event file (C1), or is an EyeLink or Tobii file with
+/// fixation events (the tracker's own parser / I-VT filter, which is what its users report);
+/// else I-DT on the samples.
 pub fn default_detector(rec: &Recording) -> Detector {
-    let eyelink_fixations = rec.format == GazeFormat::EyelinkAsc
+    let tracker_parsed = matches!(
+        rec.format,
+        GazeFormat::EyelinkAsc | GazeFormat::TobiiProLab | GazeFormat::TobiiStudio
+    );
+    let eyelink_fixations = tracker_parsed
         && rec
             .events
             .iter()

@@ -1,5 +1,6 @@
 //! Gaze recordings: detection and readers for SMI RED / iView X / BeGaze text exports
-//! (formats A, A', A2, B, B-fix, C1, C2) and SR Research EyeLink ASC files, all into one
+//! (formats A, A', A2, B, B-fix, C1, C2), SR Research EyeLink ASC files and Tobii Pro Lab /
+//! Studio data exports, all into one
 //! record model ([`Recording`]). Nothing is dropped silently: every line of a file is a
 //! header line, a blank line, a sample, a message, an event, or counted as unusable with its
 //! reason and the position of the first such line.
@@ -17,6 +18,7 @@ pub mod quality;
 pub mod recording;
 pub mod stimulus_messages;
 pub mod text;
+pub mod tobii;
 pub mod validity;
 pub mod writers;
 
@@ -39,6 +41,13 @@ pub fn detect_format(bytes: &[u8]) -> Result<GazeFormat, String> {
     let first = head.lines().next().unwrap_or("").trim();
     if eyelink::looks_like(head) {
         return Ok(GazeFormat::EyelinkAsc);
+    }
+    if tobii::looks_like(first) {
+        return Ok(if first.contains("RecordingTimestamp") {
+            GazeFormat::TobiiStudio
+        } else {
+            GazeFormat::TobiiProLab
+        });
     }
     if iview_legacy::looks_like(head) {
         return Ok(GazeFormat::IviewLegacy);
@@ -67,7 +76,7 @@ pub fn detect_format(bytes: &[u8]) -> Result<GazeFormat, String> {
     {
         return Ok(GazeFormat::BeGazeFixations);
     }
-    Err("not a recognized gaze recording: expected an EyeLink ASC file (`** CONVERTED FROM … edf`, `MSG`/`START`/`SAMPLES` lines), or an SMI export: a `## [iView]`/`## [BeGaze]` sample file (A, A'), an iView X 2.x `#FileVersion: 2` sample file (A2), a `Table Header for …` event file (C1), a BeGaze Raw Data table (`RecordingTime [ms]`, C2), an Event Statistics table (`Event Start Trial Time [ms]`, B) or a BeGaze fixation table (`Fixation Start [ms]`, B-fix)".into())
+    Err("not a recognized gaze recording: expected an EyeLink ASC file (`** CONVERTED FROM … edf`, `MSG`/`START`/`SAMPLES` lines), a Tobii Pro Lab or Studio data export (`Recording timestamp` … `Gaze point X`, or `RecordingTimestamp` … `GazePointX (ADCSpx)`), or an SMI export: a `## [iView]`/`## [BeGaze]` sample file (A, A'), an iView X 2.x `#FileVersion: 2` sample file (A2), a `Table Header for …` event file (C1), a BeGaze Raw Data table (`RecordingTime [ms]`, C2), an Event Statistics table (`Event Start Trial Time [ms]`, B) or a BeGaze fixation table (`Fixation Start [ms]`, B-fix)".into())
 }
 
 /// Reads bytes as `format` (detected when None); `path` is for messages.
@@ -91,6 +100,7 @@ pub fn parse_recording(
         GazeFormat::BeGazeFixations => begaze_fixations::read(bytes, path)?,
         GazeFormat::IviewLegacy => iview_legacy::read(bytes, path)?,
         GazeFormat::EyelinkAsc => eyelink::read(bytes, path)?,
+        GazeFormat::TobiiProLab | GazeFormat::TobiiStudio => tobii::read(bytes, path)?,
     };
     if format == GazeFormat::BeGazeSamples {
         r.format = GazeFormat::BeGazeSamples;

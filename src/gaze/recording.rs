@@ -43,6 +43,16 @@ pub enum GazeFormat {
     #[cfg_attr(feature = "cli", value(name = "eyelink"))]
     #[serde(rename = "EyeLink ASC")]
     EyelinkAsc,
+    /// Tobii Pro Lab data export (TSV or CSV): `Recording timestamp`, `Sensor`, `Gaze point
+    /// X/Y`, `Eye movement type` and its index, `Presented Media name`.
+    #[cfg_attr(feature = "cli", value(name = "tobii-pro-lab"))]
+    #[serde(rename = "Tobii Pro Lab")]
+    TobiiProLab,
+    /// Tobii Studio data export (TSV): `RecordingTimestamp` (ms), `GazePointX (ADCSpx)`,
+    /// `FixationIndex`, `MediaName`, `StudioEvent`.
+    #[cfg_attr(feature = "cli", value(name = "tobii-studio"))]
+    #[serde(rename = "Tobii Studio")]
+    TobiiStudio,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
