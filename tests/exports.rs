@@ -37,6 +37,7 @@ fn params() -> IngestParams {
             pattern: None,
             max_duration_us: Some(VIDEO_US),
         },
+        screen_px: Some([1680.0, 1050.0]),
     }
 }
 

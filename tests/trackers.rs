@@ -305,3 +305,53 @@ fn tobii_pro_lab_and_studio_exports_give_their_fixations() {
         );
     }
 }
+
+#[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
+fn gazepoint_exports_give_their_fixations_scaled_to_the_screen() {
+    let dir = common::shared_data().join("trackers/gazepoint");
+    for file in ["d2lab__User_1_all_gaze.csv", "d2lab__User_1_fixations.csv"] {
+        let path = dir.join(file);
+        let text = String::from_utf8_lossy(&std::fs::read(&path).unwrap()).to_string();
+        // Valid fixation ids, counted here from FPOGID and FPOGV.
+        let mut lines = text.lines();
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let col = |n: &str| header.iter().position(|c| *c == n).unwrap();
+        let (id, valid) = (col("FPOGID"), col("FPOGV"));
+        let ids: std::collections::BTreeSet<&str> = lines
+            .map(|l| l.split(',').collect::<Vec<_>>())
+            .filter(|f| f[valid] == "1")
+            .map(|f| f[id])
+            .collect();
+        let f = ingest_file(&path, &params()).unwrap_or_else(|e| panic!("{e}"));
+        let r = &f.recording;
+        assert_eq!(r.format, GazeFormat::Gazepoint, "{file}");
+        assert_eq!(r.rows.accounted(), r.rows.lines, "{file}");
+        assert!(r.rows.unusable.is_empty(), "{file}: {:?}", r.rows.unusable);
+        assert_eq!(
+            r.events.len(),
+            ids.len(),
+            "{file}: one event per valid FPOGID"
+        );
+        // Fractions of the screen become pixels of the protocol's 1680x1050 display.
+        assert_eq!(r.header.calibration_area_px, Some([1680.0, 1050.0]));
+        assert!(
+            r.notes.iter().any(|n| n.contains("scaled to 1680x1050")),
+            "{:?}",
+            r.notes
+        );
+        let kept = f.fixations.iter().filter(|x| x.fate == Fate::Kept).count();
+        assert!(kept > 0, "{file}: {:?}", f.warnings);
+        assert!(f
+            .fixations
+            .iter()
+            .filter(|x| x.fate == Fate::Kept)
+            .all(|x| x.x_px > 1.0 && x.x_px < 1680.0));
+        eprintln!(
+            "{file}: {} rows, {} fixations, {kept} kept; notes {:?}",
+            r.rows.lines,
+            r.events.len(),
+            r.notes
+        );
+    }
+}

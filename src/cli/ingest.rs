@@ -104,11 +104,22 @@ pub struct IngestArgs {
     /// I-VT: largest fixation speed in degrees per second [default: the protocol's].
     #[arg(long)]
     pub max_velocity_deg_s: Option<f64>,
+    /// The screen, WIDTHxHEIGHT pixels, for files whose positions are fractions of it
+    /// (Gazepoint, Pupil Labs surfaces) and that do not give its size [default: the
+    /// protocol's display]. The summary says which size a file was scaled with.
+    #[arg(long, value_parser = parse_screen_px)]
+    pub screen: Option<[f64; 2]>,
     /// Also write every sample to samples.csv.
     #[arg(long)]
     pub samples: bool,
     #[arg(short, long)]
     pub quiet: bool,
+}
+
+fn parse_screen_px(s: &str) -> Result<[f64; 2], String> {
+    meshgaze::projection::project_file::parse_screen(s)
+        .map(|(w, h)| [w, h])
+        .map_err(|e| format!("{e:#}"))
 }
 
 fn params(args: &IngestArgs, protocol: &Protocol) -> Result<IngestParams> {
@@ -123,6 +134,9 @@ fn params(args: &IngestArgs, protocol: &Protocol) -> Result<IngestParams> {
     params.eye = args.eye;
     params.validity = args.validity;
     params.subject = args.subject.clone();
+    if args.screen.is_some() {
+        params.screen_px = args.screen;
+    }
     let d = &mut params.detector_params;
     d.max_dispersion_px = args
         .max_dispersion_px

@@ -44,6 +44,9 @@ pub struct IngestParams {
     pub detector_params: DetectorParams,
     pub filter: FilterRules,
     pub segmentation: Segmentation,
+    /// The screen in pixels for files whose positions are fractions of it (Gazepoint, Pupil
+    /// Labs surfaces) and that do not say its size; None: such a file is refused.
+    pub screen_px: Option<[f64; 2]>,
 }
 
 impl IngestParams {
@@ -84,6 +87,10 @@ impl IngestParams {
                 pattern,
                 max_duration_us: Some((protocol.duration_s() * 1e6).round() as i64),
             },
+            screen_px: Some([
+                protocol.display.width_px as f64,
+                protocol.display.height_px as f64,
+            ]),
         })
     }
 }
@@ -103,6 +110,63 @@ pub struct IngestedFile {
     pub warnings: Vec<String>,
 }
 
+/// Turns a file's screen fractions into pixels of `screen` (the file's own size when it gives
+/// one), and says so in its notes; a file of fractions without any screen size is refused.
+fn scale_normalized_positions(
+    rec: &mut Recording,
+    screen: Option<[f64; 2]>,
+    path: &Path,
+) -> Result<(), String> {
+    if !rec.header.normalized {
+        return Ok(());
+    }
+    let (size, from) = match (rec.header.calibration_area_px, screen) {
+        (Some(s), _) => (s, "the file's screen size"),
+        (None, Some(s)) => (s, "--screen, else the protocol's display"),
+        (None, None) => {
+            return Err(format!(
+                "{}: positions are fractions of the screen and the file does not say its size: give --screen WIDTHxHEIGHT",
+                path.display()
+            ))
+        }
+    };
+    let [w, h] = size;
+    let scale = |e: &mut Option<EyeSample>| {
+        if let Some(e) = e.as_mut().filter(|e| e.valid || e.x != 0.0 || e.y != 0.0) {
+            e.x *= w;
+            e.y *= h;
+        }
+    };
+    for s in &mut rec.samples {
+        scale(&mut s.left);
+        scale(&mut s.right);
+        scale(&mut s.binocular);
+    }
+    for e in &mut rec.events {
+        for (v, k) in [
+            (&mut e.x, w),
+            (&mut e.y, h),
+            (&mut e.end_x, w),
+            (&mut e.end_y, h),
+        ] {
+            if let Some(v) = v.as_mut() {
+                *v *= k;
+            }
+        }
+        for (v, k) in [(&mut e.dispersion_x, w), (&mut e.dispersion_y, h)] {
+            if let Some(v) = v.as_mut() {
+                *v *= k;
+            }
+        }
+    }
+    rec.header.calibration_area_px = Some(size);
+    rec.header.normalized = false;
+    rec.notes.push(format!(
+        "positions are fractions of the screen: scaled to {w}x{h} px ({from})"
+    ));
+    Ok(())
+}
+
 /// The detector a file gets when none is asked for: the exporter's events when the file has
 /// events and no samples, or is an event file (C1), or is an EyeLink or Tobii file with
 /// fixation events (the tracker's own parser / I-VT filter, which is what its users report);
@@ -110,7 +174,10 @@ pub struct IngestedFile {
 pub fn default_detector(rec: &Recording) -> Detector {
     let tracker_parsed = matches!(
         rec.format,
-        GazeFormat::EyelinkAsc | GazeFormat::TobiiProLab | GazeFormat::TobiiStudio
+        GazeFormat::EyelinkAsc
+            | GazeFormat::TobiiProLab
+            | GazeFormat::TobiiStudio
+            | GazeFormat::Gazepoint
     );
     let eyelink_fixations = tracker_parsed
         && rec
@@ -271,6 +338,7 @@ pub fn why_no_fixations(
 /// Reads one export, finds its fixations, applies the protocol's filter and measures quality.
 pub fn ingest_file(path: &Path, params: &IngestParams) -> Result<IngestedFile, String> {
     let mut rec = read_recording(path, params.format).map_err(|e| e.to_string())?;
+    scale_normalized_positions(&mut rec, params.screen_px, path)?;
     let validity_notes = apply_validity_rule(&mut rec, params.validity);
     rec.notes.extend(validity_notes);
     let subject = params

@@ -1,6 +1,6 @@
 //! Gaze recordings: detection and readers for SMI RED / iView X / BeGaze text exports
-//! (formats A, A', A2, B, B-fix, C1, C2), SR Research EyeLink ASC files and Tobii Pro Lab /
-//! Studio data exports, all into one
+//! (formats A, A', A2, B, B-fix, C1, C2), SR Research EyeLink ASC files, Tobii Pro Lab /
+//! Studio data exports and Gazepoint Analysis exports, all into one
 //! record model ([`Recording`]). Nothing is dropped silently: every line of a file is a
 //! header line, a blank line, a sample, a message, an event, or counted as unusable with its
 //! reason and the position of the first such line.
@@ -11,6 +11,7 @@ pub mod event_tables;
 pub mod eyelink;
 pub mod fixation_table;
 pub mod fixations;
+pub mod gazepoint;
 pub mod idf_samples;
 pub mod ingest;
 pub mod iview_legacy;
@@ -41,6 +42,9 @@ pub fn detect_format(bytes: &[u8]) -> Result<GazeFormat, String> {
     let first = head.lines().next().unwrap_or("").trim();
     if eyelink::looks_like(head) {
         return Ok(GazeFormat::EyelinkAsc);
+    }
+    if gazepoint::looks_like(first) {
+        return Ok(GazeFormat::Gazepoint);
     }
     if tobii::looks_like(first) {
         return Ok(if first.contains("RecordingTimestamp") {
@@ -76,7 +80,7 @@ pub fn detect_format(bytes: &[u8]) -> Result<GazeFormat, String> {
     {
         return Ok(GazeFormat::BeGazeFixations);
     }
-    Err("not a recognized gaze recording: expected an EyeLink ASC file (`** CONVERTED FROM … edf`, `MSG`/`START`/`SAMPLES` lines), a Tobii Pro Lab or Studio data export (`Recording timestamp` … `Gaze point X`, or `RecordingTimestamp` … `GazePointX (ADCSpx)`), or an SMI export: a `## [iView]`/`## [BeGaze]` sample file (A, A'), an iView X 2.x `#FileVersion: 2` sample file (A2), a `Table Header for …` event file (C1), a BeGaze Raw Data table (`RecordingTime [ms]`, C2), an Event Statistics table (`Event Start Trial Time [ms]`, B) or a BeGaze fixation table (`Fixation Start [ms]`, B-fix)".into())
+    Err("not a recognized gaze recording: expected an EyeLink ASC file (`** CONVERTED FROM … edf`, `MSG`/`START`/`SAMPLES` lines), a Tobii Pro Lab or Studio data export (`Recording timestamp` … `Gaze point X`, or `RecordingTimestamp` … `GazePointX (ADCSpx)`), a Gazepoint Analysis export (`TIME(…)`, `FPOGX`), or an SMI export: a `## [iView]`/`## [BeGaze]` sample file (A, A'), an iView X 2.x `#FileVersion: 2` sample file (A2), a `Table Header for …` event file (C1), a BeGaze Raw Data table (`RecordingTime [ms]`, C2), an Event Statistics table (`Event Start Trial Time [ms]`, B) or a BeGaze fixation table (`Fixation Start [ms]`, B-fix)".into())
 }
 
 /// Reads bytes as `format` (detected when None); `path` is for messages.
@@ -101,6 +105,7 @@ pub fn parse_recording(
         GazeFormat::IviewLegacy => iview_legacy::read(bytes, path)?,
         GazeFormat::EyelinkAsc => eyelink::read(bytes, path)?,
         GazeFormat::TobiiProLab | GazeFormat::TobiiStudio => tobii::read(bytes, path)?,
+        GazeFormat::Gazepoint => gazepoint::read(bytes, path)?,
     };
     if format == GazeFormat::BeGazeSamples {
         r.format = GazeFormat::BeGazeSamples;

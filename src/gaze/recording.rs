@@ -53,6 +53,11 @@ pub enum GazeFormat {
     #[cfg_attr(feature = "cli", value(name = "tobii-studio"))]
     #[serde(rename = "Tobii Studio")]
     TobiiStudio,
+    /// Gazepoint Analysis export (`*_all_gaze.csv`, `*_fixations.csv`): `TIME(…)` s,
+    /// `FPOGX/FPOGY` fractions of the screen, `FPOGID` fixations, `MEDIA_NAME`, `USER`.
+    #[cfg_attr(feature = "cli", value(name = "gazepoint"))]
+    #[serde(rename = "Gazepoint")]
+    Gazepoint,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
@@ -159,6 +164,9 @@ pub struct Header {
     pub version: Option<String>,
     /// `## Format:` items (LEFT, RIGHT, POR, …).
     pub format_items: Vec<String>,
+    /// Positions are fractions of the screen (0–1, origin top-left), as Gazepoint and Pupil
+    /// Labs surfaces give them: ingest scales them to pixels with the screen size it is given.
+    pub normalized: bool,
 }
 
 /// Where the first row with a problem was, so a user can look at it.

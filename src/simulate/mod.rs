@@ -587,6 +587,7 @@ fn header_of(
             .map(|d| d + chrono::Duration::minutes(15 * k as i64)),
         version: None,
         format_items: Vec::new(),
+        normalized: false,
     }
 }
 

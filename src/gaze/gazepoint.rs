@@ -1,0 +1,317 @@
+//! Gazepoint (GP3, GP3 HD) exports of Gazepoint Analysis: `*_all_gaze.csv` (one row per
+//! sample) and `*_fixations.csv` (one row per fixation), into the one record model.
+//!
+//! Columns (Gazepoint's API names): `TIME(2022/09/19 13:34:49.156)` seconds since the
+//! recording started (its start in the name), `TIMETICK(f=10000000)` the tracker's ticks,
+//! `MEDIA_NAME` the stimulus shown, `FPOGX/FPOGY` the fixation point of gaze and `FPOGS`,
+//! `FPOGD`, `FPOGID`, `FPOGV` its start (s), duration so far (s), id and validity, `BPOGX/BPOGY`
+//! / `BPOGV` the best point of gaze (both eyes), `LPOGX/LPOGY`, `RPOGX/RPOGY` per eye when
+//! exported, `LPMM`/`RPMM` pupil diameters (mm), `USER` what the experiment logged. Positions
+//! are fractions of the screen (origin top-left); the file does not give the screen's size,
+//! so ingest scales them with `--screen` or the protocol's display and says so.
+//!
+//! Fixations are Gazepoint's own: the rows of one valid `FPOGID`, whose last row holds the
+//! fixation's final position and duration (the tracker updates both while it lasts).
+use std::collections::BTreeMap;
+
+use super::recording::{
+    Event, EventKind, Eye, EyeSample, GazeError, GazeFormat, Header, Message, Recording,
+    RowAccount, Sample,
+};
+use super::text::{decode, lines, number, split, Separator};
+
+/// Whether the first line is a Gazepoint Analysis export's header.
+pub(crate) fn looks_like(first_line: &str) -> bool {
+    let f = first_line.trim_start_matches('\u{feff}');
+    f.contains("FPOGX") && f.contains("FPOGY") && (f.contains("TIME(") || f.contains("TIME,"))
+}
+
+struct Columns {
+    time: usize,
+    media: Option<usize>,
+    user: Option<usize>,
+    count: Option<usize>,
+    fpog: [usize; 2],
+    fpog_start: Option<usize>,
+    fpog_duration: Option<usize>,
+    fpog_id: Option<usize>,
+    fpog_valid: Option<usize>,
+    best: Option<[usize; 3]>,
+    left: Option<[usize; 3]>,
+    right: Option<[usize; 3]>,
+    pupil: [Option<usize>; 2],
+}
+
+fn columns_of(names: &[String], path: &str) -> Result<Columns, GazeError> {
+    let col = |n: &str| names.iter().position(|c| c == n);
+    let need = |n: &str| {
+        col(n).ok_or_else(|| GazeError::At {
+            path: path.to_string(),
+            line: 1,
+            column: 1,
+            message: format!("a Gazepoint export without the `{n}` column"),
+        })
+    };
+    let time = names
+        .iter()
+        .position(|c| c == "TIME" || c.starts_with("TIME("))
+        .ok_or_else(|| GazeError::At {
+            path: path.to_string(),
+            line: 1,
+            column: 1,
+            message:
+                "a Gazepoint export without a `TIME(…)` column: the time of each row is needed"
+                    .into(),
+        })?;
+    let triple = |x: &str, y: &str, v: &str| Some([col(x)?, col(y)?, col(v)?]);
+    Ok(Columns {
+        time,
+        media: col("MEDIA_NAME"),
+        user: col("USER"),
+        count: col("CNT"),
+        fpog: [need("FPOGX")?, need("FPOGY")?],
+        fpog_start: col("FPOGS"),
+        fpog_duration: col("FPOGD"),
+        fpog_id: col("FPOGID"),
+        fpog_valid: col("FPOGV"),
+        best: triple("BPOGX", "BPOGY", "BPOGV"),
+        left: triple("LPOGX", "LPOGY", "LPOGV"),
+        right: triple("RPOGX", "RPOGY", "RPOGV"),
+        pupil: [col("LPMM"), col("RPMM")],
+    })
+}
+
+/// `TIME(2022/09/19 13:34:49.156)`: the recording's start.
+fn start_of(name: &str) -> Option<chrono::NaiveDateTime> {
+    let inner = name.strip_prefix("TIME(")?.strip_suffix(')')?;
+    chrono::NaiveDateTime::parse_from_str(inner, "%Y/%m/%d %H:%M:%S%.f").ok()
+}
+
+/// A fixation id's rows so far.
+struct Open {
+    start_us: i64,
+    last_us: i64,
+    duration_us: i64,
+    x: f64,
+    y: f64,
+    stimulus: Option<String>,
+}
+
+/// Reads a Gazepoint Analysis export; `path` names it in messages.
+pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
+    let text = decode(bytes);
+    let all = lines(&text);
+    let Some(&(_, first)) = all.first() else {
+        return Err(GazeError::File {
+            path: path.to_string(),
+            message: "the file is empty".into(),
+        });
+    };
+    let sep = Separator::sniff(first);
+    let names: Vec<String> = split(first, sep)
+        .iter()
+        .map(|(_, c)| c.trim().to_string())
+        .collect();
+    let c = columns_of(&names, path)?;
+    let mut header = Header {
+        banner: Some("Gazepoint Analysis export".into()),
+        date: start_of(&names[c.time]),
+        normalized: true,
+        ..Header::default()
+    };
+    let mut rows = RowAccount {
+        lines: all.len(),
+        header_lines: 1,
+        ..Default::default()
+    };
+    let mut samples = Vec::new();
+    let mut messages = Vec::new();
+    let mut fixations: BTreeMap<u64, Open> = BTreeMap::new();
+    let mut first_named: BTreeMap<String, i64> = BTreeMap::new();
+    let mut counts: Vec<f64> = Vec::new();
+    let n = names.len();
+    for &(no, line) in &all[1..] {
+        if line.trim().is_empty() {
+            rows.blank_lines += 1;
+            continue;
+        }
+        let f = split(line, sep);
+        // Gazepoint ends every line with a comma: the header's last name is empty.
+        let fits = f.len() == n || (f.len() + 1 == n && names[n - 1].is_empty());
+        if !fits {
+            let reason = format!("row with a field count other than the header's {n}");
+            rows.reject(&reason, no, 1, line);
+            continue;
+        }
+        let get = |i: Option<usize>| -> Result<Option<f64>, usize> {
+            match i {
+                Some(i) if i < f.len() => number(f[i].1, sep).map_err(|_| i),
+                _ => Ok(None),
+            }
+        };
+        let text_of = |i: Option<usize>| {
+            i.and_then(|i| f.get(i))
+                .map(|x| x.1.trim())
+                .filter(|v| !v.is_empty())
+        };
+        let parsed = (|| {
+            let t = get(Some(c.time))?.ok_or(c.time)?;
+            let eye = |cols: Option<[usize; 3]>,
+                       pupil: Option<usize>|
+             -> Result<Option<EyeSample>, usize> {
+                let Some([x, y, v]) = cols else {
+                    return Ok(None);
+                };
+                let (x, y, v) = (get(Some(x))?, get(Some(y))?, get(Some(v))?);
+                let valid = v == Some(1.0) && x.is_some() && y.is_some();
+                Ok(Some(EyeSample {
+                    x: if valid { x.unwrap_or(0.0) } else { 0.0 },
+                    y: if valid { y.unwrap_or(0.0) } else { 0.0 },
+                    pupil: get(pupil)?.filter(|p| *p > 0.0),
+                    valid,
+                    flag_lost: !valid,
+                }))
+            };
+            let left = eye(c.left, c.pupil[0])?;
+            let right = eye(c.right, c.pupil[1])?;
+            let best = eye(c.best, None)?;
+            let fpog = (get(Some(c.fpog[0]))?, get(Some(c.fpog[1]))?);
+            let fix = (
+                get(c.fpog_start)?,
+                get(c.fpog_duration)?,
+                get(c.fpog_id)?,
+                get(c.fpog_valid)?,
+            );
+            Ok::<_, usize>((t, left, right, best, fpog, fix))
+        })();
+        let (t, left, right, best, fpog, (fs, fd, id, fv)) = match parsed {
+            Ok(v) => v,
+            Err(i) => {
+                let reason = format!("`{}` is not a number", names[i]);
+                rows.reject(&reason, no, f[i].0, line);
+                continue;
+            }
+        };
+        if t < 0.0 {
+            rows.reject("negative TIME", no, f[c.time].0, line);
+            continue;
+        }
+        let t_us = (t * 1e6).round() as i64;
+        if let Ok(Some(k)) = get(c.count) {
+            counts.push(k);
+        }
+        let stimulus = text_of(c.media).map(str::to_string);
+        if let Some(s) = &stimulus {
+            first_named.entry(s.clone()).or_insert(t_us);
+        }
+        if let Some(u) = text_of(c.user) {
+            messages.push(Message {
+                time_us: t_us,
+                trial: 1,
+                text: u.to_string(),
+            });
+        }
+        if let (Some(id), Some(1.0), (Some(x), Some(y))) = (id, fv, fpog) {
+            let start_us = fs.map_or(t_us, |s| (s * 1e6).round() as i64);
+            let duration_us = fd.map_or(0, |d| (d * 1e6).round() as i64);
+            let e = fixations.entry(id as u64).or_insert(Open {
+                start_us,
+                last_us: t_us,
+                duration_us,
+                x,
+                y,
+                stimulus: stimulus.clone(),
+            });
+            e.last_us = t_us;
+            e.x = x;
+            e.y = y;
+            e.duration_us = e.duration_us.max(duration_us);
+        }
+        rows.samples += 1;
+        samples.push(Sample {
+            time_us: t_us,
+            trial: 1,
+            left,
+            right,
+            binocular: best,
+            binocular_event: None,
+            left_event: None,
+            right_event: None,
+            stimulus,
+        });
+    }
+    let events = fixations
+        .into_iter()
+        .map(|(id, o)| {
+            let duration = if o.duration_us > 0 {
+                o.duration_us
+            } else {
+                o.last_us - o.start_us
+            };
+            let onset = o
+                .stimulus
+                .as_ref()
+                .and_then(|s| first_named.get(s).copied());
+            Event {
+                kind: EventKind::Fixation,
+                eye: Eye::Binocular,
+                trial: 1,
+                number: id,
+                start_us: o.start_us,
+                end_us: o.start_us + duration,
+                duration_us: duration,
+                x: Some(o.x),
+                y: Some(o.y),
+                end_x: None,
+                end_y: None,
+                dispersion_x: None,
+                dispersion_y: None,
+                pupil_x: None,
+                pupil_y: None,
+                stimulus: o.stimulus,
+                stimulus_onset_us: onset,
+                participant: None,
+            }
+        })
+        .collect();
+    // The fixation export has the all-gaze columns but one row per fixation: its sample
+    // counter jumps. Its rows are fixations, not samples to detect fixations in.
+    let mut steps: Vec<f64> = counts.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    let fixation_table = steps.get(steps.len() / 2).is_some_and(|&d| d > 1.0);
+    let notes = if fixation_table {
+        rows.events = rows.samples;
+        rows.samples = 0;
+        samples.clear();
+        vec!["Gazepoint fixation export (one row per fixation: its sample counter CNT jumps); positions are fractions of the screen".to_string()]
+    } else {
+        header.sample_rate_hz = rate_of(&samples);
+        vec!["Gazepoint all-gaze export; positions are fractions of the screen".to_string()]
+    };
+    Ok(Recording {
+        file: path.to_string(),
+        format: GazeFormat::Gazepoint,
+        header,
+        columns: names,
+        samples,
+        messages,
+        events,
+        rows,
+        notes,
+    })
+}
+
+/// The rate from the median interval between rows (None for a fixation table, whose rows are
+/// far apart and irregular).
+fn rate_of(samples: &[Sample]) -> Option<f64> {
+    let mut d: Vec<i64> = samples
+        .windows(2)
+        .map(|w| w[1].time_us - w[0].time_us)
+        .filter(|d| *d > 0)
+        .collect();
+    if d.len() < 10 {
+        return None;
+    }
+    d.sort_unstable();
+    Some((1e6 / d[d.len() / 2] as f64).round())
+}
