@@ -355,3 +355,78 @@ fn gazepoint_exports_give_their_fixations_scaled_to_the_screen() {
         );
     }
 }
+
+#[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
+fn pupil_core_surface_exports_give_fixations_and_world_camera_exports_are_refused() {
+    let src = common::shared_data().join("trackers/pupil");
+    // Laid out as Pupil Player writes an export: surfaces/ with its surface_events.csv.
+    let export = std::env::temp_dir().join(format!("meshgaze-pupil-{}", std::process::id()));
+    let surfaces = export.join("surfaces");
+    std::fs::create_dir_all(&surfaces).unwrap();
+    for (from, to) in [
+        (
+            "chblab__gaze_positions_on_surface_Surface_1.csv",
+            "gaze_positions_on_surface_Surface 1.csv",
+        ),
+        (
+            "chblab__fixations_on_surface_Surface_1.csv",
+            "fixations_on_surface_Surface 1.csv",
+        ),
+        ("chblab__surface_events.csv", "surface_events.csv"),
+    ] {
+        std::fs::copy(src.join(from), surfaces.join(to)).unwrap();
+    }
+    for file in [
+        "gaze_positions_on_surface_Surface 1.csv",
+        "fixations_on_surface_Surface 1.csv",
+    ] {
+        let path = surfaces.join(file);
+        let text = std::fs::read_to_string(&path).unwrap();
+        let f = ingest_file(&path, &params()).unwrap_or_else(|e| panic!("{e}"));
+        let r = &f.recording;
+        assert_eq!(r.format, GazeFormat::PupilCore, "{file}");
+        assert_eq!(r.rows.accounted(), r.rows.lines, "{file}");
+        assert!(r.rows.unusable.is_empty(), "{file}: {:?}", r.rows.unusable);
+        // surface_events.csv beside it: its two enter/exit rows are messages.
+        let events_rows = std::fs::read_to_string(surfaces.join("surface_events.csv"))
+            .unwrap()
+            .lines()
+            .count()
+            - 1;
+        assert_eq!(r.messages.len(), events_rows, "{file}: {:?}", r.notes);
+        let kept = f.fixations.iter().filter(|x| x.fate == Fate::Kept).count();
+        let usable = f
+            .fixations
+            .iter()
+            .filter(|x| x.fate != Fate::Invalid)
+            .count();
+        assert!(kept > 0, "{file}: {:?}", f.warnings);
+        if file.starts_with("fixations") {
+            let mut lines = text.lines();
+            let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+            let id = header.iter().position(|c| *c == "fixation_id").unwrap();
+            let ids: std::collections::BTreeSet<&str> =
+                lines.map(|l| l.split(',').nth(id).unwrap()).collect();
+            assert_eq!(r.events.len(), ids.len(), "one event per fixation_id");
+        }
+        eprintln!(
+            "{file}: {} samples, {} fixation events, {usable} usable, {kept} kept; notes {:?}",
+            r.samples.len(),
+            r.events.len(),
+            r.notes
+        );
+    }
+    let _ = std::fs::remove_dir_all(&export);
+    for file in ["tutorials__gaze_positions.csv", "tutorials__fixations.csv"] {
+        let e = ingest_file(&src.join(file), &params())
+            .err()
+            .unwrap_or_else(|| panic!("{file} accepted"));
+        assert!(
+            e.contains("world-camera")
+                && e.contains("Surface Tracker")
+                && e.contains("Marker Mapper"),
+            "{e}"
+        );
+    }
+}

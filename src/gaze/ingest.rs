@@ -178,6 +178,8 @@ pub fn default_detector(rec: &Recording) -> Detector {
             | GazeFormat::TobiiProLab
             | GazeFormat::TobiiStudio
             | GazeFormat::Gazepoint
+            | GazeFormat::PupilCore
+            | GazeFormat::PupilCloud
     );
     let eyelink_fixations = tracker_parsed
         && rec

@@ -1,6 +1,6 @@
 //! Gaze recordings: detection and readers for SMI RED / iView X / BeGaze text exports
 //! (formats A, A', A2, B, B-fix, C1, C2), SR Research EyeLink ASC files, Tobii Pro Lab /
-//! Studio data exports and Gazepoint Analysis exports, all into one
+//! Studio data exports, Gazepoint Analysis exports and Pupil Labs surface exports, all into one
 //! record model ([`Recording`]). Nothing is dropped silently: every line of a file is a
 //! header line, a blank line, a sample, a message, an event, or counted as unusable with its
 //! reason and the position of the first such line.
@@ -15,6 +15,7 @@ pub mod gazepoint;
 pub mod idf_samples;
 pub mod ingest;
 pub mod iview_legacy;
+pub mod pupil_labs;
 pub mod quality;
 pub mod recording;
 pub mod stimulus_messages;
@@ -42,6 +43,13 @@ pub fn detect_format(bytes: &[u8]) -> Result<GazeFormat, String> {
     let first = head.lines().next().unwrap_or("").trim();
     if eyelink::looks_like(head) {
         return Ok(GazeFormat::EyelinkAsc);
+    }
+    if pupil_labs::looks_like(first) {
+        return Ok(if pupil_labs::is_cloud(first) {
+            GazeFormat::PupilCloud
+        } else {
+            GazeFormat::PupilCore
+        });
     }
     if gazepoint::looks_like(first) {
         return Ok(GazeFormat::Gazepoint);
@@ -80,7 +88,7 @@ pub fn detect_format(bytes: &[u8]) -> Result<GazeFormat, String> {
     {
         return Ok(GazeFormat::BeGazeFixations);
     }
-    Err("not a recognized gaze recording: expected an EyeLink ASC file (`** CONVERTED FROM … edf`, `MSG`/`START`/`SAMPLES` lines), a Tobii Pro Lab or Studio data export (`Recording timestamp` … `Gaze point X`, or `RecordingTimestamp` … `GazePointX (ADCSpx)`), a Gazepoint Analysis export (`TIME(…)`, `FPOGX`), or an SMI export: a `## [iView]`/`## [BeGaze]` sample file (A, A'), an iView X 2.x `#FileVersion: 2` sample file (A2), a `Table Header for …` event file (C1), a BeGaze Raw Data table (`RecordingTime [ms]`, C2), an Event Statistics table (`Event Start Trial Time [ms]`, B) or a BeGaze fixation table (`Fixation Start [ms]`, B-fix)".into())
+    Err("not a recognized gaze recording: expected an EyeLink ASC file (`** CONVERTED FROM … edf`, `MSG`/`START`/`SAMPLES` lines), a Tobii Pro Lab or Studio data export (`Recording timestamp` … `Gaze point X`, or `RecordingTimestamp` … `GazePointX (ADCSpx)`), a Gazepoint Analysis export (`TIME(…)`, `FPOGX`), a Pupil Labs surface export (`gaze_positions_on_surface_<name>.csv`, Marker Mapper `gaze.csv`), or an SMI export: a `## [iView]`/`## [BeGaze]` sample file (A, A'), an iView X 2.x `#FileVersion: 2` sample file (A2), a `Table Header for …` event file (C1), a BeGaze Raw Data table (`RecordingTime [ms]`, C2), an Event Statistics table (`Event Start Trial Time [ms]`, B) or a BeGaze fixation table (`Fixation Start [ms]`, B-fix)".into())
 }
 
 /// Reads bytes as `format` (detected when None); `path` is for messages.
@@ -106,6 +114,7 @@ pub fn parse_recording(
         GazeFormat::EyelinkAsc => eyelink::read(bytes, path)?,
         GazeFormat::TobiiProLab | GazeFormat::TobiiStudio => tobii::read(bytes, path)?,
         GazeFormat::Gazepoint => gazepoint::read(bytes, path)?,
+        GazeFormat::PupilCore | GazeFormat::PupilCloud => pupil_labs::read(bytes, path)?,
     };
     if format == GazeFormat::BeGazeSamples {
         r.format = GazeFormat::BeGazeSamples;
@@ -126,5 +135,22 @@ pub fn read_recording(path: &Path, format: Option<GazeFormat>) -> Result<Recordi
             message: format!("gzip data is corrupt: {e}"),
         },
     })?;
-    parse_recording(&bytes, &p, format)
+    let mut rec = parse_recording(&bytes, &p, format)?;
+    if matches!(rec.format, GazeFormat::PupilCore | GazeFormat::PupilCloud) {
+        // Pupil Labs writes messages to files of their own beside the gaze.
+        let (messages, files) =
+            pupil_labs::sibling_messages(path, rec.format == GazeFormat::PupilCloud);
+        for (file, n, skipped) in files {
+            rec.notes.push(format!(
+                "{n} messages from {file}{}",
+                if skipped > 0 {
+                    format!(" ({skipped} of its lines were not messages)")
+                } else {
+                    String::new()
+                }
+            ));
+        }
+        rec.messages.extend(messages);
+    }
+    Ok(rec)
 }

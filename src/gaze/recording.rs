@@ -58,6 +58,15 @@ pub enum GazeFormat {
     #[cfg_attr(feature = "cli", value(name = "gazepoint"))]
     #[serde(rename = "Gazepoint")]
     Gazepoint,
+    /// Pupil Core surface export of Pupil Player (`gaze_positions_on_surface_<name>.csv`,
+    /// `fixations_on_surface_<name>.csv`): fractions of the surface.
+    #[cfg_attr(feature = "cli", value(name = "pupil-core"))]
+    #[serde(rename = "Pupil Core surface")]
+    PupilCore,
+    /// Pupil Cloud Marker Mapper export of Neon / Invisible (`gaze.csv`, `fixations.csv`).
+    #[cfg_attr(feature = "cli", value(name = "pupil-cloud"))]
+    #[serde(rename = "Pupil Cloud surface")]
+    PupilCloud,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
