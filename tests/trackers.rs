@@ -430,3 +430,55 @@ fn pupil_core_surface_exports_give_fixations_and_world_camera_exports_are_refuse
         );
     }
 }
+
+#[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
+fn tobii_studio_lists_give_fixations_with_their_event_lists_messages() {
+    let src = common::shared_data().join("trackers/tobii");
+    let dir = std::env::temp_dir().join(format!("meshgaze-tobii-lists-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // Named as Studio wrote them, beside each other.
+    let fixations = dir.join("P61-Fixation-Data.tsv");
+    let events = dir.join("P61-Event-Data.tsv");
+    std::fs::copy(src.join("emdat__P61-Fixation-Data.tsv"), &fixations).unwrap();
+    std::fs::copy(src.join("emdat__P61-Event-Data.tsv"), &events).unwrap();
+    let text = std::fs::read_to_string(&fixations).unwrap();
+    let table_rows = text
+        .lines()
+        .skip_while(|l| !l.starts_with("FixationIndex"))
+        .skip(1)
+        .filter(|l| !l.trim().is_empty())
+        .count();
+    let event_text = std::fs::read_to_string(&events).unwrap();
+    let event_rows = event_text
+        .lines()
+        .skip_while(|l| !l.starts_with("Timestamp\tEvent"))
+        .skip(1)
+        .filter(|l| !l.trim().is_empty())
+        .count();
+    let f = ingest_file(&fixations, &params()).unwrap_or_else(|e| panic!("{e}"));
+    let r = &f.recording;
+    assert_eq!(r.format, GazeFormat::TobiiStudioList);
+    assert_eq!(r.rows.accounted(), r.rows.lines);
+    assert!(r.rows.unusable.is_empty(), "{:?}", r.rows.unusable);
+    assert_eq!(r.events.len(), table_rows);
+    assert_eq!(r.messages.len(), event_rows, "{:?}", r.notes);
+    assert_eq!(r.header.calibration_area_px, Some([1280.0, 1024.0]));
+    assert_eq!(r.header.subject.as_deref(), Some("P105"));
+    let kept = f.fixations.iter().filter(|x| x.fate == Fate::Kept).count();
+    assert!(kept > 0, "{:?}", f.warnings);
+    eprintln!(
+        "{} fixations, {} messages, {kept} kept; {:?}",
+        r.events.len(),
+        r.messages.len(),
+        r.notes
+    );
+    let e = ingest_file(&events, &params())
+        .err()
+        .expect("an event list has no gaze");
+    assert!(
+        e.contains("event list") && e.contains("Fixation-Data"),
+        "{e}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

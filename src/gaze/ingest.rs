@@ -177,6 +177,7 @@ pub fn default_detector(rec: &Recording) -> Detector {
         GazeFormat::EyelinkAsc
             | GazeFormat::TobiiProLab
             | GazeFormat::TobiiStudio
+            | GazeFormat::TobiiStudioList
             | GazeFormat::Gazepoint
             | GazeFormat::PupilCore
             | GazeFormat::PupilCloud

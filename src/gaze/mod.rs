@@ -21,6 +21,7 @@ pub mod recording;
 pub mod stimulus_messages;
 pub mod text;
 pub mod tobii;
+pub mod tobii_lists;
 pub mod validity;
 pub mod writers;
 
@@ -43,6 +44,9 @@ pub fn detect_format(bytes: &[u8]) -> Result<GazeFormat, String> {
     let first = head.lines().next().unwrap_or("").trim();
     if eyelink::looks_like(head) {
         return Ok(GazeFormat::EyelinkAsc);
+    }
+    if tobii_lists::looks_like(head) {
+        return Ok(GazeFormat::TobiiStudioList);
     }
     if pupil_labs::looks_like(first) {
         return Ok(if pupil_labs::is_cloud(first) {
@@ -88,7 +92,7 @@ pub fn detect_format(bytes: &[u8]) -> Result<GazeFormat, String> {
     {
         return Ok(GazeFormat::BeGazeFixations);
     }
-    Err("not a recognized gaze recording: expected an EyeLink ASC file (`** CONVERTED FROM … edf`, `MSG`/`START`/`SAMPLES` lines), a Tobii Pro Lab or Studio data export (`Recording timestamp` … `Gaze point X`, or `RecordingTimestamp` … `GazePointX (ADCSpx)`), a Gazepoint Analysis export (`TIME(…)`, `FPOGX`), a Pupil Labs surface export (`gaze_positions_on_surface_<name>.csv`, Marker Mapper `gaze.csv`), or an SMI export: a `## [iView]`/`## [BeGaze]` sample file (A, A'), an iView X 2.x `#FileVersion: 2` sample file (A2), a `Table Header for …` event file (C1), a BeGaze Raw Data table (`RecordingTime [ms]`, C2), an Event Statistics table (`Event Start Trial Time [ms]`, B) or a BeGaze fixation table (`Fixation Start [ms]`, B-fix)".into())
+    Err("not a recognized gaze recording: expected an EyeLink ASC file (`** CONVERTED FROM … edf`, `MSG`/`START`/`SAMPLES` lines), a Tobii Pro Lab or Studio data export (`Recording timestamp` … `Gaze point X`, or `RecordingTimestamp` … `GazePointX (ADCSpx)`), a Tobii Studio 1.x/2.x fixation list (`FixationIndex\tTimestamp\tFixationDuration` after a `Data properties:` block), a Gazepoint Analysis export (`TIME(…)`, `FPOGX`), a Pupil Labs surface export (`gaze_positions_on_surface_<name>.csv`, Marker Mapper `gaze.csv`), or an SMI export: a `## [iView]`/`## [BeGaze]` sample file (A, A'), an iView X 2.x `#FileVersion: 2` sample file (A2), a `Table Header for …` event file (C1), a BeGaze Raw Data table (`RecordingTime [ms]`, C2), an Event Statistics table (`Event Start Trial Time [ms]`, B) or a BeGaze fixation table (`Fixation Start [ms]`, B-fix)".into())
 }
 
 /// Reads bytes as `format` (detected when None); `path` is for messages.
@@ -114,6 +118,7 @@ pub fn parse_recording(
         GazeFormat::EyelinkAsc => eyelink::read(bytes, path)?,
         GazeFormat::TobiiProLab | GazeFormat::TobiiStudio => tobii::read(bytes, path)?,
         GazeFormat::Gazepoint => gazepoint::read(bytes, path)?,
+        GazeFormat::TobiiStudioList => tobii_lists::read(bytes, path)?,
         GazeFormat::PupilCore | GazeFormat::PupilCloud => pupil_labs::read(bytes, path)?,
     };
     if format == GazeFormat::BeGazeSamples {
@@ -136,6 +141,21 @@ pub fn read_recording(path: &Path, format: Option<GazeFormat>) -> Result<Recordi
         },
     })?;
     let mut rec = parse_recording(&bytes, &p, format)?;
+    if rec.format == GazeFormat::TobiiStudioList {
+        // Studio wrote the stimulus events to the event list beside the fixation list.
+        if let Some((messages, file, skipped)) = tobii_lists::sibling_event_messages(path) {
+            rec.notes.push(format!(
+                "{} messages from {file}{}",
+                messages.len(),
+                if skipped > 0 {
+                    format!(" ({skipped} of its rows were not messages)")
+                } else {
+                    String::new()
+                }
+            ));
+            rec.messages.extend(messages);
+        }
+    }
     if matches!(rec.format, GazeFormat::PupilCore | GazeFormat::PupilCloud) {
         // Pupil Labs writes messages to files of their own beside the gaze.
         let (messages, files) =

@@ -53,6 +53,11 @@ pub enum GazeFormat {
     #[cfg_attr(feature = "cli", value(name = "tobii-studio"))]
     #[serde(rename = "Tobii Studio")]
     TobiiStudio,
+    /// Tobii Studio 1.x/2.x fixation list (`…-Fixation-Data.tsv`: a `key: value` block, then
+    /// `FixationIndex`, `Timestamp`, `FixationDuration`, `MappedFixationPointX/Y`).
+    #[cfg_attr(feature = "cli", value(name = "tobii-studio-list"))]
+    #[serde(rename = "Tobii Studio list")]
+    TobiiStudioList,
     /// Gazepoint Analysis export (`*_all_gaze.csv`, `*_fixations.csv`): `TIME(…)` s,
     /// `FPOGX/FPOGY` fractions of the screen, `FPOGID` fixations, `MEDIA_NAME`, `USER`.
     #[cfg_attr(feature = "cli", value(name = "gazepoint"))]
