@@ -11,7 +11,9 @@ use meshgaze::gaze::fixations::{
 };
 use meshgaze::gaze::parse_recording;
 use meshgaze::gaze::stimulus_messages::Segmentation;
-use meshgaze::gaze::writers::{write_events_c1, write_eyelink_asc, write_samples_a};
+use meshgaze::gaze::writers::{
+    write_events_c1, write_eyelink_asc, write_samples_a, write_tobii_pro_lab_tsv,
+};
 use meshgaze::projection::self_check::self_check;
 use meshgaze::projection::table::ProjectedRow;
 use meshgaze::projection::{
@@ -56,7 +58,7 @@ fn ingest_and_project(
             .header
             .subject
             .clone()
-            .unwrap_or_else(|| name.trim_end_matches(".asc").to_string());
+            .unwrap_or_else(|| name.split('.').next().unwrap_or(name).to_string());
         let mut fx = fixations(
             &rec,
             &subject,
@@ -260,6 +262,27 @@ fn virtual_observers_round_trip_to_their_targets() {
         let rows: Vec<ProjectedRow> = projected.iter().map(ProjectedRow::from).collect();
         let rt = round_trip(&mesh, &plan, ppd, &targets, &rows);
         eprintln!("EyeLink ASC, {detector:?}: {rt:?}");
+        assert!(
+            rt.within_1deg == rt.on_mesh && rt.rate >= 0.97,
+            "{detector:?}: {rt:?}"
+        );
+    }
+    // Tobii Pro Lab TSV: the stimulus comes from its rows and start event, fixations from
+    // its filter labels (or I-DT on its samples).
+    let files_tsv: Vec<(String, String)> = subjects
+        .iter()
+        .map(|s| {
+            (
+                format!("{}.tsv", s.id),
+                write_tobii_pro_lab_tsv(&s.header, &s.samples, &s.events, &s.messages),
+            )
+        })
+        .collect();
+    for detector in [Detector::Events, Detector::IDt] {
+        let projected = ingest_and_project(&files_tsv, detector, &plan, &caster, &protocol, None);
+        let rows: Vec<ProjectedRow> = projected.iter().map(ProjectedRow::from).collect();
+        let rt = round_trip(&mesh, &plan, ppd, &targets, &rows);
+        eprintln!("Tobii Pro Lab TSV, {detector:?}: {rt:?}");
         assert!(
             rt.within_1deg == rt.on_mesh && rt.rate >= 0.97,
             "{detector:?}: {rt:?}"

@@ -24,7 +24,9 @@ use super::progress_bar::Bars;
 /// eyes, blinks as SMI's (0, 0), messages at stimulus onset) and a format C1 event file (IDF
 /// Event Detector text), as a RED250 lab would export them; `meshgaze ingest` reads both.
 /// With --recording-format eyelink each subject gets one EyeLink ASC file (sNN.asc: samples,
-/// EFIX/ESACC/EBLINK events and messages, as edf2asc writes them) instead.
+/// EFIX/ESACC/EBLINK events and messages, as edf2asc writes them) instead; with
+/// --recording-format tobii one Tobii Pro Lab data export (sNN.tsv: samples with the I-VT
+/// filter's fixation labels, stimulus start events).
 /// targets.csv records the true target vertex of every fixation, so the pipeline ingest →
 /// filter → project can be checked against the truth.
 ///
@@ -84,7 +86,8 @@ pub struct SimulateArgs {
     #[arg(long, default_value_t = 0.05)]
     pub blink_probability: f64,
     /// Which tracker's files to write: smi (format A samples and C1 events, a RED250 lab's
-    /// exports) or eyelink (one ASC file per subject, as edf2asc writes it).
+    /// exports), eyelink (one ASC file per subject, as edf2asc writes it) or tobii (one Pro
+    /// Lab TSV data export per subject).
     #[arg(long, value_enum, default_value_t = RecordingFormat::Smi)]
     pub recording_format: RecordingFormat,
     /// The mesh, if it moved since the stimulus was rendered (its hash must match).

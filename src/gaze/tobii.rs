@@ -545,6 +545,24 @@ impl Reader<'_> {
                 .copied()
                 .unwrap_or(first)
         };
+        // A start event names the stimulus without its extension (`VideoStimulusStart B3 -
+        // Trim`); its message is the media file the rows name (`B3 - Trim.mp4`), so the
+        // stimulus-message rules see the onset, as they do in the other formats.
+        let media_by_stem: BTreeMap<&str, &str> = self
+            .first_named
+            .keys()
+            .filter_map(|m| Some((m.rsplit_once('.')?.0, m.as_str())))
+            .collect();
+        let mut messages = self.messages.clone();
+        let mut renamed = 0;
+        for m in &mut messages {
+            if let Some((ev, value)) = m.text.split_once(' ') {
+                if let (true, Some(media)) = (ev.ends_with("Start"), media_by_stem.get(value)) {
+                    m.text = media.to_string();
+                    renamed += 1;
+                }
+            }
+        }
         let mut events = Vec::new();
         let mut from_samples = 0;
         for (k, f) in self.fixations.iter().enumerate() {
@@ -586,6 +604,11 @@ impl Reader<'_> {
             "time column `{}` read as {time_note}",
             self.names[self.c.time]
         )];
+        if renamed > 0 {
+            notes.push(format!(
+                "{renamed} stimulus start events are messages named by their media file"
+            ));
+        }
         for (sensor, n) in &self.other_sensors {
             notes.push(format!(
                 "{n} rows of the `{sensor}` sensor are not gaze and were set aside"
@@ -609,7 +632,7 @@ impl Reader<'_> {
             header: self.header,
             columns: self.names,
             samples: self.samples,
-            messages: self.messages,
+            messages,
             events,
             rows,
             notes,

@@ -313,3 +313,149 @@ pub fn write_eyelink_asc(
     let _ = writeln!(s, "END\t{} \tSAMPLES\tEVENTS", eyelink_ms(last));
     s
 }
+
+/// Tobii Pro Lab data export text (TSV, `Recording timestamp [μs]`), as Pro Lab writes a
+/// screen recording: one `Eye Tracker` row per sample with both eyes, their average, validity
+/// and pupil; an event row (`ImageStimulusStart` / `VideoStimulusStart` and the stimulus name
+/// without its extension) at each message naming a stimulus file, else the message text as
+/// an `Event` of its own; the presented stimulus on every row after its start; and the
+/// fixation filter's labels: `Fixation` with its index, duration and point on the rows of each
+/// fixation event (both eyes averaged, as Tobii's filter reports), `Saccade`, `EyesNotFound`
+/// or `Unclassified` elsewhere.
+pub fn write_tobii_pro_lab_tsv(
+    header: &Header,
+    samples: &[Sample],
+    events: &[Event],
+    messages: &[Message],
+) -> String {
+    let mut s = String::from("Recording timestamp [μs]\tSensor\tParticipant name\tRecording resolution width\tRecording resolution height\tEvent\tEvent value\tGaze point X\tGaze point Y\tGaze point left X\tGaze point left Y\tGaze point right X\tGaze point right Y\tPupil diameter left\tPupil diameter right\tValidity left\tValidity right\tPresented Stimulus name\tPresented Media name\tEye movement type\tGaze event duration\tEye movement type index\tFixation point X\tFixation point Y\n");
+    let participant = header.subject.clone().unwrap_or_default();
+    let [w, h] = header.calibration_area_px.unwrap_or([0.0, 0.0]);
+    let (w, h) = if w > 0.0 {
+        (format!("{w}"), format!("{h}"))
+    } else {
+        (String::new(), String::new())
+    };
+    let media_of = |text: &str| -> Option<(String, String, &'static str)> {
+        let name = text.trim().rsplit(['/', '\\']).next()?.to_string();
+        let (stem, ext) = name.rsplit_once('.')?;
+        let kind = match ext.to_ascii_lowercase().as_str() {
+            "mp4" | "avi" | "mov" | "mkv" | "wmv" | "webm" | "m4v" | "mpg" | "mpeg" => "Video",
+            "png" | "jpg" | "jpeg" | "bmp" | "gif" | "tif" | "tiff" | "webp" => "Image",
+            _ => return None,
+        };
+        Some((stem.to_string(), name.clone(), kind))
+    };
+    // The fixation filter's view: the first eye's fixations, both eyes' points averaged.
+    let first_eye = events.iter().map(|e| e.eye).min();
+    let mut fixations: Vec<(i64, i64, i64, f64, f64)> = Vec::new();
+    for e in events
+        .iter()
+        .filter(|e| e.kind == EventKind::Fixation && Some(e.eye) == first_eye)
+    {
+        let same: Vec<&Event> = events
+            .iter()
+            .filter(|o| o.kind == EventKind::Fixation && o.start_us == e.start_us && o.x.is_some())
+            .collect();
+        let n = same.len().max(1) as f64;
+        let x = same.iter().filter_map(|o| o.x).sum::<f64>() / n;
+        let y = same.iter().filter_map(|o| o.y).sum::<f64>() / n;
+        fixations.push((e.start_us, e.end_us, e.duration_us, x, y));
+    }
+    fixations.sort_by_key(|f| f.0);
+    let saccades: Vec<(i64, i64)> = events
+        .iter()
+        .filter(|e| e.kind == EventKind::Saccade && Some(e.eye) == first_eye)
+        .map(|e| (e.start_us, e.end_us))
+        .collect();
+    let mut msgs: Vec<&Message> = messages.iter().collect();
+    msgs.sort_by_key(|m| m.time_us);
+    let (mut j, mut fk) = (0usize, 0usize);
+    let mut presented: Option<(String, String)> = None;
+    let v = |x: Option<f64>| x.map_or(String::new(), |x| format!("{x}"));
+    let event_row = |s: &mut String, m: &Message, presented: &mut Option<(String, String)>| {
+        let text = m.text.replace(['\n', '\r', '\t'], " ");
+        let (event, value) = match media_of(&text) {
+            Some((stem, name, kind)) => {
+                *presented = Some((stem.clone(), name));
+                (format!("{kind}StimulusStart"), stem)
+            }
+            None => (text, String::new()),
+        };
+        let _ = writeln!(
+            s,
+            "{}\t\t{participant}\t{w}\t{h}\t{event}\t{value}{}",
+            m.time_us,
+            "\t".repeat(17)
+        );
+    };
+    for p in samples {
+        while j < msgs.len() && msgs[j].time_us <= p.time_us {
+            event_row(&mut s, msgs[j], &mut presented);
+            j += 1;
+        }
+        while fk < fixations.len() && fixations[fk].1 < p.time_us {
+            fk += 1;
+        }
+        let eye = |e: Option<super::recording::EyeSample>| match e {
+            Some(e) if e.valid => (Some(e.x), Some(e.y), e.pupil, "Valid"),
+            _ => (None, None, None, "Invalid"),
+        };
+        let (lx, ly, lp, lv) = eye(p.left);
+        let (rx, ry, rp, rv) = eye(p.right);
+        let mean = |a: Option<f64>, b: Option<f64>| match (a, b) {
+            (Some(a), Some(b)) => Some((a + b) / 2.0),
+            (a, b) => a.or(b),
+        };
+        let (gx, gy) = (mean(lx, rx), mean(ly, ry));
+        let in_fixation = fixations
+            .get(fk)
+            .filter(|f| f.0 <= p.time_us && p.time_us <= f.1);
+        let (movement, duration, index, fx, fy) = match in_fixation {
+            Some(f) => (
+                "Fixation",
+                format!("{}", f.2 as f64 / 1000.0),
+                format!("{}", fk + 1),
+                format!("{}", f.3),
+                format!("{}", f.4),
+            ),
+            None => {
+                let kind = if gx.is_none() {
+                    "EyesNotFound"
+                } else if saccades
+                    .iter()
+                    .any(|&(a, b)| a <= p.time_us && p.time_us <= b)
+                {
+                    "Saccade"
+                } else {
+                    "Unclassified"
+                };
+                (
+                    kind,
+                    String::new(),
+                    String::new(),
+                    String::new(),
+                    String::new(),
+                )
+            }
+        };
+        let (stim, media) = presented.clone().unwrap_or_default();
+        let _ = writeln!(
+            s,
+            "{}\tEye Tracker\t{participant}\t{w}\t{h}\t\t\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{}\t{lv}\t{rv}\t{stim}\t{media}\t{movement}\t{duration}\t{index}\t{fx}\t{fy}",
+            p.time_us,
+            v(gx),
+            v(gy),
+            v(lx),
+            v(ly),
+            v(rx),
+            v(ry),
+            v(lp),
+            v(rp)
+        );
+    }
+    for m in &msgs[j..] {
+        event_row(&mut s, m, &mut presented);
+    }
+    s
+}

@@ -188,6 +188,9 @@ pub enum RecordingFormat {
     /// SR Research EyeLink: one ASC file per subject (`sNN.asc`), samples, events and
     /// messages as edf2asc writes them.
     Eyelink,
+    /// Tobii Pro Lab: one data export per subject (`sNN.tsv`), samples with the I-VT
+    /// filter's fixation labels and stimulus start events.
+    Tobii,
 }
 
 impl RecordingFormat {
@@ -200,7 +203,9 @@ impl RecordingFormat {
         events: &[Event],
         messages: &[Message],
     ) -> Vec<(String, String)> {
-        use crate::gaze::writers::{write_events_c1, write_eyelink_asc, write_samples_a};
+        use crate::gaze::writers::{
+            write_events_c1, write_eyelink_asc, write_samples_a, write_tobii_pro_lab_tsv,
+        };
         match self {
             RecordingFormat::Smi => vec![
                 (
@@ -215,6 +220,10 @@ impl RecordingFormat {
             RecordingFormat::Eyelink => vec![(
                 format!("{id}.asc"),
                 write_eyelink_asc(header, samples, events, messages),
+            )],
+            RecordingFormat::Tobii => vec![(
+                format!("{id}.tsv"),
+                write_tobii_pro_lab_tsv(header, samples, events, messages),
             )],
         }
     }
