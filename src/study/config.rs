@@ -15,7 +15,8 @@ pub struct StudyFile {
     pub protocol: Option<PathBuf>,
     /// Mesh files or globs (`meshes/*.ply`).
     pub meshes: Vec<String>,
-    /// SMI export files or globs; may match nothing yet (the stimuli come first).
+    /// Recording files or globs (any format ingest reads, mixed); may match nothing yet (the
+    /// stimuli come first).
     #[serde(default)]
     pub recordings: Vec<String>,
     /// Saliency methods to compute and score.
