@@ -482,3 +482,110 @@ fn tobii_studio_lists_give_fixations_with_their_event_lists_messages() {
     );
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+mod table_reader_properties {
+    use meshgaze::gaze::recording::{EyeSample, Header, Message, Sample};
+    use meshgaze::gaze::writers::write_tobii_pro_lab_tsv;
+    use meshgaze::gaze::{parse_recording, GazeFormat};
+    use proptest::prelude::*;
+
+    const GAZEPOINT: &str = "MEDIA_ID,MEDIA_NAME,CNT,TIME(2022/09/19 13:34:49.156),TIMETICK(f=10000000),FPOGX,FPOGY,FPOGS,FPOGD,FPOGID,FPOGV,BPOGX,BPOGY,BPOGV,USER,\n0,bunny.mp4,0,0.00000,35043126,0.45310,0.56713,0.00000,0.00000,1,0,0.45310,0.56713,1,,\n0,bunny.mp4,1,0.01633,35043128,0.49667,0.51520,0.00000,0.01633,1,1,0.54025,0.46328,1,START,\n0,bunny.mp4,2,0.03266,35043130,0.49667,0.51520,0.00000,0.03266,1,1,0.54025,0.46328,1,,\n";
+    const PUPIL: &str = "world_timestamp,world_index,gaze_timestamp,x_norm,y_norm,x_scaled,y_scaled,on_surf,confidence\n38818.243809,1,38818.254884,0.5974,0.6,0.5974,0.6,True,0.99\n38818.275781,2,38818.267277,0.60,2.14,0.60,2.14,False,0.0\n38818.3,3,38818.29,0.61,0.62,0.61,0.62,True,0.95\n";
+    const STUDIO_LIST: &str = "Data properties:\n\nSubject: P105\nScreen resolution: 1280 x 1024\n\nFixationIndex\tTimestamp\tFixationDuration\tMappedFixationPointX\tMappedFixationPointY\t\n12\t26\t633\t513\t518\t\n13\t659\t849\t595\t527\t\n";
+
+    fn tobii_file() -> String {
+        let samples: Vec<Sample> = (0..30)
+            .map(|k| {
+                let e = EyeSample {
+                    x: 400.0 + k as f64,
+                    y: 300.25,
+                    pupil: Some(3.5),
+                    valid: k % 11 != 5,
+                    flag_lost: k % 11 == 5,
+                };
+                Sample {
+                    time_us: 1_000 + k * 8_333,
+                    trial: 1,
+                    left: Some(e),
+                    right: Some(e),
+                    binocular: None,
+                    binocular_event: None,
+                    left_event: None,
+                    right_event: None,
+                    stimulus: None,
+                }
+            })
+            .collect();
+        let header = Header {
+            calibration_area_px: Some([1680.0, 1050.0]),
+            subject: Some("s01".into()),
+            ..Header::default()
+        };
+        let messages = vec![Message {
+            time_us: 1_000,
+            trial: 1,
+            text: "bunny.mp4".into(),
+        }];
+        write_tobii_pro_lab_tsv(&header, &samples, &[], &messages)
+    }
+
+    fn damage(text: &str, seed: u64, edits: usize, alphabet: &[u8]) -> Vec<u8> {
+        let mut bytes = text.as_bytes().to_vec();
+        let mut s = seed;
+        for _ in 0..edits {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            let at = (s >> 33) as usize % bytes.len();
+            let what = alphabet[(s >> 20) as usize % alphabet.len()];
+            match s % 3 {
+                0 => bytes[at] = what,
+                1 => bytes.insert(at, what),
+                _ => {
+                    bytes.remove(at);
+                }
+            }
+        }
+        bytes
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(96))]
+        /// Damaged Tobii, Gazepoint, Pupil and Studio-list files never panic; what reads
+        /// accounts for every line, one sample per sample line.
+        #[test]
+        fn damaged_table_exports_never_panic_and_account_for_every_line(
+            which in 0usize..4,
+            seed in any::<u64>(),
+            edits in 1usize..25,
+        ) {
+            let (base, format, alphabet): (String, GazeFormat, &[u8]) = match which {
+                0 => (tobii_file(), GazeFormat::TobiiProLab, b"\t\n.,-5VxE\""),
+                1 => (GAZEPOINT.to_string(), GazeFormat::Gazepoint, b",\n.-51x"),
+                2 => (PUPIL.to_string(), GazeFormat::PupilCore, b",\n.-5TF"),
+                _ => (STUDIO_LIST.to_string(), GazeFormat::TobiiStudioList, b"\t\n:-5x"),
+            };
+            let bytes = damage(&base, seed, edits, alphabet);
+            if let Ok(r) = parse_recording(&bytes, "damaged", Some(format)) {
+                prop_assert_eq!(r.rows.accounted(), r.rows.lines);
+                prop_assert_eq!(r.samples.len(), r.rows.samples);
+                prop_assert!(r.events.iter().all(|e| e.end_us >= e.start_us));
+            }
+        }
+    }
+
+    #[test]
+    fn written_tobii_tsv_reads_back_its_samples_and_stimulus() {
+        let text = tobii_file();
+        let r = parse_recording(text.as_bytes(), "s01.tsv", None).unwrap();
+        assert_eq!(r.format, GazeFormat::TobiiProLab);
+        assert_eq!(r.rows.unusable_total(), 0, "{:?}", r.rows.unusable);
+        assert_eq!(r.samples.len(), 30);
+        assert_eq!(r.samples[3].time_us, 1_000 + 3 * 8_333);
+        assert_eq!(r.samples[3].left.unwrap().x, 403.0);
+        assert!(!r.samples[5].left.unwrap().valid);
+        assert_eq!(r.samples[0].stimulus.as_deref(), Some("bunny.mp4"));
+        assert_eq!(r.messages[0].text, "bunny.mp4");
+        assert_eq!(r.header.calibration_area_px, Some([1680.0, 1050.0]));
+    }
+}
