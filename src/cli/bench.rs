@@ -6,7 +6,7 @@ use clap::Args;
 
 use meshgaze::experiments::timing::{
     eyelink_parse_speed, paper_case, run_case, run_cell_in_child, smi_parse_speed, stimulus_cell,
-    CaseResult, StimulusCell, COMPETITORS, PAPER_CASES,
+    table_parse_speeds, CaseResult, StimulusCell, COMPETITORS, PAPER_CASES,
 };
 use meshgaze::saliency::Method;
 
@@ -353,5 +353,15 @@ fn print_smi_parse(data: &Path) -> Result<()> {
         e.samples as f64 / e.seconds / 1e6,
         (e.samples as f64 / e.seconds) / (s.samples as f64 / s.seconds)
     );
+    for (what, t) in table_parse_speeds(data)? {
+        println!(
+            "{what} parse (its real export's rows repeated, {:.0} MB in memory): {} rows in {:.2} s = {:.2} million rows/s ({:.2}x SMI format A per sample)",
+            t.bytes as f64 / 1e6,
+            t.samples,
+            t.seconds,
+            t.samples as f64 / t.seconds / 1e6,
+            (t.samples as f64 / t.seconds) / (s.samples as f64 / s.seconds)
+        );
+    }
     Ok(())
 }

@@ -124,7 +124,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         header_lines: 1,
         ..Default::default()
     };
-    let mut samples = Vec::new();
+    let mut samples = Vec::with_capacity(all.len());
     let mut messages = Vec::new();
     let mut fixations: BTreeMap<u64, Open> = BTreeMap::new();
     let mut first_named: BTreeMap<String, i64> = BTreeMap::new();

@@ -190,7 +190,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         header_lines: 1,
         ..Default::default()
     };
-    let mut samples = Vec::new();
+    let mut samples = Vec::with_capacity(all.len());
     let mut fixations: BTreeMap<String, Open> = BTreeMap::new();
     let mut order: Vec<String> = Vec::new();
     let mut low_confidence = 0usize;

@@ -308,7 +308,9 @@ impl Reader<'_> {
         self.screen_of(&f);
         let stimulus = self.stimulus_of(&f);
         if let Some(s) = &stimulus {
-            self.first_named.entry(s.clone()).or_insert(t_us);
+            if !self.first_named.contains_key(s) {
+                self.first_named.insert(s.clone(), t_us);
+            }
         }
         let event = self.get(&f, self.c.event).map(str::to_string);
         if let Some(ev) = &event {
@@ -322,10 +324,10 @@ impl Reader<'_> {
                 text: format!("{ev} {value}").trim_end().to_string(),
             });
         }
-        let sensor = self.get(&f, self.c.sensor).map(str::to_string);
+        let sensor = self.get(&f, self.c.sensor);
         // Pro Lab says which sensor a row is from; Studio's rows are gaze unless they carry
         // only an event.
-        let gaze_row = match (self.c.sensor.is_some(), sensor.as_deref()) {
+        let gaze_row = match (self.c.sensor.is_some(), sensor) {
             (true, Some("Eye Tracker")) => true,
             (true, Some(other)) => {
                 *self.other_sensors.entry(other.to_string()).or_insert(0) += 1;
@@ -412,9 +414,9 @@ impl Reader<'_> {
         let fixation_point = self.point(f, self.c.fixation)?;
         let media_pos = self.point(f, self.c.media_pos)?;
         let duration = self.num(f, self.c.duration)?;
-        let movement = self.get(f, self.c.movement).map(str::to_string);
-        let index = self.get(f, self.c.movement_index).map(str::to_string);
-        if movement.as_deref() == Some("Fixation") {
+        let movement = self.get(f, self.c.movement);
+        let index = self.get(f, self.c.movement_index);
+        if movement == Some("Fixation") {
             if let Some(index) = index {
                 let point = fixation_point.map(|(x, y)| match media_pos {
                     Some((mx, my)) => (x + mx, y + my),
@@ -429,7 +431,7 @@ impl Reader<'_> {
             left,
             right,
             binocular,
-            binocular_event: movement,
+            binocular_event: movement.map(str::to_string),
             left_event: None,
             right_event: None,
             stimulus,
@@ -439,7 +441,7 @@ impl Reader<'_> {
 
     fn fixation_row(
         &mut self,
-        index: String,
+        index: &str,
         t_us: i64,
         duration_ms: Option<f64>,
         point: Option<(f64, f64)>,
@@ -449,7 +451,7 @@ impl Reader<'_> {
         let continues = self.fixations.last().is_some_and(|f| f.index == index);
         if !continues {
             self.fixations.push(OpenFixation {
-                index,
+                index: index.to_string(),
                 start_us: t_us,
                 last_us: t_us,
                 duration_us: duration_ms.map(|d| (d * 1000.0).round() as i64),
@@ -684,7 +686,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             }),
             ..Default::default()
         },
-        samples: Vec::new(),
+        samples: Vec::with_capacity(all.len()),
         messages: Vec::new(),
         fixations: Vec::new(),
         first_named: BTreeMap::new(),

@@ -9,7 +9,7 @@ mod stimulus_cell;
 mod table3;
 
 pub use memory::peak_rss_mb;
-pub use smi_parse::{eyelink_parse_speed, smi_parse_speed, ParseSpeed};
+pub use smi_parse::{eyelink_parse_speed, smi_parse_speed, table_parse_speeds, ParseSpeed};
 pub use stimulus_cell::{stimulus_cell, StimulusCell};
 pub use table3::{
     load_case, paper_case, run_case, run_cell_in_child, CaseResult, PaperCase, COMPETITORS,

@@ -107,3 +107,103 @@ pub fn eyelink_parse_speed(data: &Path) -> Result<ParseSpeed, TimingError> {
         seconds: start.elapsed().as_secs_f64(),
     })
 }
+
+/// A table export whose rows are repeated with shifted times for a parse measurement.
+struct TableCase {
+    file: &'static str,
+    separator: char,
+    /// The time column, and how many of its units one row-span shift adds per repeat.
+    time_column: usize,
+    /// Time units per second (µs: 1e6, s: 1).
+    units_per_s: f64,
+    what: &'static str,
+}
+
+const TABLE_CASES: [TableCase; 3] = [
+    TableCase {
+        file: "trackers/tobii/tobii-pro__all_gaze.csv",
+        separator: ',',
+        time_column: 0,
+        units_per_s: 1e6,
+        what: "Tobii Pro Lab",
+    },
+    TableCase {
+        file: "trackers/gazepoint/d2lab__User_1_all_gaze.csv",
+        separator: ',',
+        time_column: 3,
+        units_per_s: 1.0,
+        what: "Gazepoint",
+    },
+    TableCase {
+        file: "trackers/pupil/chblab__gaze_positions_on_surface_Surface_1.csv",
+        separator: ',',
+        time_column: 2,
+        units_per_s: 1.0,
+        what: "Pupil Core surface",
+    },
+];
+
+/// Parse speed of the Tobii Pro Lab, Gazepoint and Pupil Core readers: each real export's
+/// rows repeated (times shifted by the file's span each time) to about 1.1 million rows,
+/// read from memory. Returns (reader, speed) per format.
+pub fn table_parse_speeds(data: &Path) -> Result<Vec<(&'static str, ParseSpeed)>, TimingError> {
+    let mut out = Vec::new();
+    for case in &TABLE_CASES {
+        let path = data.join(case.file);
+        let bad = |message: &str| TimingError::Input {
+            path: path.clone(),
+            message: message.to_string(),
+        };
+        let text = std::fs::read_to_string(&path).map_err(|e| bad(&e.to_string()))?;
+        let mut lines = text.lines();
+        let head = lines.next().ok_or_else(|| bad("empty"))?;
+        let rows: Vec<(f64, Vec<&str>)> = lines
+            .filter_map(|l| {
+                let f: Vec<&str> = l.split(case.separator).collect();
+                let t = f.get(case.time_column)?.trim().parse::<f64>().ok()?;
+                Some((t, f))
+            })
+            .collect();
+        let (Some(first), Some(last)) = (
+            rows.iter().map(|r| r.0).reduce(f64::min),
+            rows.iter().map(|r| r.0).reduce(f64::max),
+        ) else {
+            return Err(bad("no rows with a time"));
+        };
+        let span = last - first + case.units_per_s / 100.0;
+        let repeats = (1_100_000 / rows.len().max(1)).max(1);
+        let mut big = String::with_capacity(text.len() * (repeats + 1));
+        big.push_str(head);
+        big.push('\n');
+        let sep = case.separator.to_string();
+        for k in 0..repeats {
+            for (t, f) in &rows {
+                let mut f = f.clone();
+                let shifted = if case.units_per_s >= 1e6 {
+                    format!("{}", (t + k as f64 * span).round() as i64)
+                } else {
+                    format!("{:.6}", t + k as f64 * span)
+                };
+                f[case.time_column] = &shifted;
+                big.push_str(&f.join(&sep));
+                big.push('\n');
+            }
+        }
+        let start = std::time::Instant::now();
+        let rec = crate::gaze::parse_recording(big.as_bytes(), "bench", None).map_err(|e| {
+            TimingError::Step {
+                step: format!("the {} parse", case.what),
+                message: e.to_string(),
+            }
+        })?;
+        out.push((
+            case.what,
+            ParseSpeed {
+                bytes: big.len(),
+                samples: rec.rows.samples + rec.rows.events,
+                seconds: start.elapsed().as_secs_f64(),
+            },
+        ));
+    }
+    Ok(out)
+}
