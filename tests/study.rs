@@ -301,3 +301,77 @@ fn a_bad_set_line_names_the_file_and_the_setting() {
         "{e}"
     );
 }
+
+/// One study, three trackers: subjects recorded with an SMI RED (format A), an EyeLink (ASC)
+/// and a Tobii (Pro Lab TSV), all playing every video. Each file is read with its format's
+/// defaults and every subject gives the protocol's 15 fixations per mesh.
+#[test]
+fn a_study_takes_recordings_of_several_trackers_mixed() {
+    let dir = setup("mixed");
+    std::fs::write(
+        dir.join("study.toml"),
+        "protocol = \"short.toml\"\nmeshes = [\"meshes/*.ply\"]\nrecordings = [\"recordings/*\"]\nmethods = [\"mc\"]\n",
+    )
+    .unwrap();
+    meshgaze(&dir, &["study", "run", "study.toml", "--quiet"]);
+    std::fs::create_dir_all(dir.join("recordings")).unwrap();
+    for (format, subjects, ext) in [
+        ("smi", 1..=3, "_samples.txt"),
+        ("eyelink", 4..=6, ".asc"),
+        ("tobii", 7..=8, ".tsv"),
+    ] {
+        let out = format!("sim-{format}");
+        meshgaze(
+            &dir,
+            &[
+                "simulate",
+                "--study",
+                "study.toml",
+                "--subjects",
+                "8",
+                "--recording-format",
+                format,
+                "-o",
+                &out,
+                "-q",
+            ],
+        );
+        for k in subjects {
+            let name = format!("s{k:02}{ext}");
+            std::fs::copy(
+                dir.join(&out).join(&name),
+                dir.join("recordings").join(&name),
+            )
+            .unwrap();
+        }
+    }
+    meshgaze(&dir, &["study", "run", "study.toml", "--quiet"]);
+    let fix = String::from_utf8(read(dir.join("study/ingest/fixations.csv"))).unwrap();
+    let header: Vec<&str> = fix.lines().next().unwrap().split(',').collect();
+    let col = |n: &str| {
+        header
+            .iter()
+            .position(|c| *c == n)
+            .unwrap_or_else(|| panic!("{n}: {header:?}"))
+    };
+    let (subject, stimulus, fate) = (col("subject"), col("stimulus"), col("fate"));
+    for m in ["apple", "bunny", "cow"] {
+        for k in 1..=8 {
+            let kept = fix
+                .lines()
+                .filter(|l| {
+                    let f: Vec<&str> = l.split(',').collect();
+                    f[subject] == format!("s{k:02}")
+                        && f[stimulus] == format!("{m}.mp4")
+                        && f[fate] == "kept"
+                })
+                .count();
+            assert_eq!(kept, 15, "{m}, s{k:02}");
+        }
+        assert!(
+            dir.join(format!("study/truth/{m}/truth.csv")).exists(),
+            "{m}"
+        );
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
