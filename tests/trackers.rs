@@ -589,3 +589,15 @@ mod table_reader_properties {
         assert_eq!(r.header.calibration_area_px, Some([1680.0, 1050.0]));
     }
 }
+
+/// Found by libFuzzer: a Studio fixation list whose time is ~1e300 ms overflowed the
+/// fixation's end; such a row is now counted as unusable.
+#[test]
+fn a_fixation_list_time_beyond_2_53_us_is_unusable_not_an_overflow() {
+    let bytes = std::fs::read(common::repo_root().join("tests/data/fuzz_tobii_list_huge_time.tsv"))
+        .unwrap();
+    if let Ok(r) = meshgaze::gaze::parse_recording(&bytes, "crash.tsv", None) {
+        assert_eq!(r.rows.accounted(), r.rows.lines);
+        assert!(r.events.iter().all(|e| e.end_us >= e.start_us));
+    }
+}

@@ -246,7 +246,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             let duration = if o.duration_us > 0 {
                 o.duration_us
             } else {
-                o.last_us - o.start_us
+                (o.last_us - o.start_us).max(0)
             };
             let onset = o
                 .stimulus
@@ -258,7 +258,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
                 trial: 1,
                 number: id,
                 start_us: o.start_us,
-                end_us: o.start_us + duration,
+                end_us: o.start_us.saturating_add(duration),
                 duration_us: duration,
                 x: Some(o.x),
                 y: Some(o.y),

@@ -243,7 +243,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             let d_ms = duration.and_then(num);
             let end_us = match (end.and_then(num), d_ms) {
                 (Some(e), _) => to_us(e),
-                (None, Some(d)) => t_us + (d * 1000.0).round() as i64,
+                (None, Some(d)) => t_us.saturating_add((d * 1000.0).round() as i64),
                 (None, None) => t_us,
             };
             if !fixations.contains_key(&id) {

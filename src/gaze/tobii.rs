@@ -576,7 +576,11 @@ impl Reader<'_> {
                 }
                 _ => (None, None),
             };
-            let duration = f.duration_us.unwrap_or(f.last_us - f.start_us);
+            // A negative duration (a damaged row) falls back to the rows' span, never below 0.
+            let duration = f
+                .duration_us
+                .filter(|d| *d >= 0)
+                .unwrap_or((f.last_us - f.start_us).max(0));
             let onset = f
                 .stimulus
                 .as_deref()
@@ -587,7 +591,7 @@ impl Reader<'_> {
                 trial: 1,
                 number: k as u64 + 1,
                 start_us: f.start_us,
-                end_us: f.start_us + duration,
+                end_us: f.start_us.saturating_add(duration),
                 duration_us: duration,
                 x,
                 y,

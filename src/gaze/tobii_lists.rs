@@ -163,6 +163,11 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             rows.reject("negative fixation time or duration", no, f[1].0, line);
             continue;
         }
+        // Beyond ±2^53 µs a time is no longer exact, and its end would overflow.
+        if t > 9.0e12 || d > 9.0e12 {
+            rows.reject("fixation time or duration beyond 2^53 µs", no, f[1].0, line);
+            continue;
+        }
         let (start, duration) = ((t * 1000.0).round() as i64, (d * 1000.0).round() as i64);
         rows.events += 1;
         events.push(Event {
