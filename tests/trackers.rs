@@ -601,3 +601,22 @@ fn a_fixation_list_time_beyond_2_53_us_is_unusable_not_an_overflow() {
         assert!(r.events.iter().all(|e| e.end_us >= e.start_us));
     }
 }
+
+/// Found by libFuzzer: a Gazepoint fixation whose end fell before its start.
+#[test]
+fn a_gazepoint_fixation_never_ends_before_it_starts() {
+    let bytes =
+        std::fs::read(common::repo_root().join("tests/data/fuzz_gazepoint_fixation_end.csv"))
+            .unwrap();
+    if let Ok(r) = meshgaze::gaze::parse_recording(&bytes, "crash.csv", Some(GazeFormat::Gazepoint))
+    {
+        assert_eq!(r.rows.accounted(), r.rows.lines);
+        let bad: Vec<(i64, i64)> = r
+            .events
+            .iter()
+            .filter(|e| e.end_us < e.start_us)
+            .map(|e| (e.start_us, e.end_us))
+            .collect();
+        assert!(bad.is_empty(), "{bad:?}");
+    }
+}
