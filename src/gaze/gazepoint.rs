@@ -97,150 +97,82 @@ struct Open {
     stimulus: Option<String>,
 }
 
-/// Reads a Gazepoint Analysis export; `path` names it in messages.
-pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
-    let text = decode(bytes);
-    let all = lines(&text);
-    let Some(&(_, first)) = all.first() else {
-        return Err(GazeError::File {
-            path: path.to_string(),
-            message: "the file is empty".into(),
-        });
-    };
-    let sep = Separator::sniff(first);
-    let names: Vec<String> = split(first, sep)
-        .iter()
-        .map(|(_, c)| c.trim().to_string())
-        .collect();
-    let c = columns_of(&names, path)?;
-    let mut header = Header {
-        banner: Some("Gazepoint Analysis export".into()),
-        date: start_of(&names[c.time]),
-        normalized: true,
-        ..Header::default()
-    };
-    let mut rows = RowAccount {
-        lines: all.len(),
-        header_lines: 1,
-        ..Default::default()
-    };
-    let mut samples = Vec::with_capacity(all.len());
-    let mut messages = Vec::new();
-    let mut fixations: BTreeMap<u64, Open> = BTreeMap::new();
-    let mut first_named: BTreeMap<String, i64> = BTreeMap::new();
-    let mut counts: Vec<f64> = Vec::new();
-    let n = names.len();
-    for &(no, line) in &all[1..] {
-        if line.trim().is_empty() {
-            rows.blank_lines += 1;
-            continue;
+/// The numbers of one row: time, eyes, the fixation point and its start, duration, id and
+/// validity, the sample counter.
+struct Row {
+    t: f64,
+    left: Option<EyeSample>,
+    right: Option<EyeSample>,
+    best: Option<EyeSample>,
+    fpog: (Option<f64>, Option<f64>),
+    fix: (Option<f64>, Option<f64>, Option<f64>, Option<f64>),
+    count: Option<f64>,
+}
+
+/// Parses a row's fields; Err: the index of a field that is not a number.
+fn parse_row(c: &Columns, f: &[(usize, &str)], sep: Separator) -> Result<Row, usize> {
+    let get = |i: Option<usize>| -> Result<Option<f64>, usize> {
+        match i {
+            Some(i) if i < f.len() => number(f[i].1, sep).map_err(|_| i),
+            _ => Ok(None),
         }
-        let f = split(line, sep);
-        // Gazepoint ends every line with a comma: the header's last name is empty.
-        let fits = f.len() == n || (f.len() + 1 == n && names[n - 1].is_empty());
-        if !fits {
-            let reason = format!("row with a field count other than the header's {n}");
-            rows.reject(&reason, no, 1, line);
-            continue;
-        }
-        let get = |i: Option<usize>| -> Result<Option<f64>, usize> {
-            match i {
-                Some(i) if i < f.len() => number(f[i].1, sep).map_err(|_| i),
-                _ => Ok(None),
-            }
-        };
-        let text_of = |i: Option<usize>| {
-            i.and_then(|i| f.get(i))
-                .map(|x| x.1.trim())
-                .filter(|v| !v.is_empty())
-        };
-        let parsed = (|| {
-            let t = get(Some(c.time))?.ok_or(c.time)?;
-            let eye = |cols: Option<[usize; 3]>,
-                       pupil: Option<usize>|
-             -> Result<Option<EyeSample>, usize> {
-                let Some([x, y, v]) = cols else {
-                    return Ok(None);
-                };
-                let (x, y, v) = (get(Some(x))?, get(Some(y))?, get(Some(v))?);
-                let valid = v == Some(1.0) && x.is_some() && y.is_some();
-                Ok(Some(EyeSample {
-                    x: if valid { x.unwrap_or(0.0) } else { 0.0 },
-                    y: if valid { y.unwrap_or(0.0) } else { 0.0 },
-                    pupil: get(pupil)?.filter(|p| *p > 0.0),
-                    valid,
-                    flag_lost: !valid,
-                }))
+    };
+    let eye =
+        |cols: Option<[usize; 3]>, pupil: Option<usize>| -> Result<Option<EyeSample>, usize> {
+            let Some([x, y, v]) = cols else {
+                return Ok(None);
             };
-            let left = eye(c.left, c.pupil[0])?;
-            let right = eye(c.right, c.pupil[1])?;
-            let best = eye(c.best, None)?;
-            let fpog = (get(Some(c.fpog[0]))?, get(Some(c.fpog[1]))?);
-            let fix = (
-                get(c.fpog_start)?,
-                get(c.fpog_duration)?,
-                get(c.fpog_id)?,
-                get(c.fpog_valid)?,
-            );
-            Ok::<_, usize>((t, left, right, best, fpog, fix))
-        })();
-        let (t, left, right, best, fpog, (fs, fd, id, fv)) = match parsed {
-            Ok(v) => v,
-            Err(i) => {
-                let reason = format!("`{}` is not a number", names[i]);
-                rows.reject(&reason, no, f[i].0, line);
-                continue;
-            }
+            let (x, y, v) = (get(Some(x))?, get(Some(y))?, get(Some(v))?);
+            let valid = v == Some(1.0) && x.is_some() && y.is_some();
+            Ok(Some(EyeSample {
+                x: if valid { x.unwrap_or(0.0) } else { 0.0 },
+                y: if valid { y.unwrap_or(0.0) } else { 0.0 },
+                pupil: get(pupil)?.filter(|p| *p > 0.0),
+                valid,
+                flag_lost: !valid,
+            }))
         };
-        if t < 0.0 {
-            rows.reject("negative TIME", no, f[c.time].0, line);
-            continue;
-        }
-        let t_us = (t * 1e6).round() as i64;
-        if let Ok(Some(k)) = get(c.count) {
-            counts.push(k);
-        }
-        let stimulus = text_of(c.media).map(str::to_string);
-        if let Some(s) = &stimulus {
-            first_named.entry(s.clone()).or_insert(t_us);
-        }
-        if let Some(u) = text_of(c.user) {
-            messages.push(Message {
-                time_us: t_us,
-                trial: 1,
-                text: u.to_string(),
-            });
-        }
-        if let (Some(id), Some(1.0), (Some(x), Some(y))) = (id, fv, fpog) {
-            let start_us = fs.map_or(t_us, |s| (s * 1e6).round() as i64);
-            let duration_us = fd.map_or(0, |d| (d * 1e6).round() as i64);
-            let e = fixations.entry(id as u64).or_insert(Open {
-                start_us,
-                last_us: t_us,
-                duration_us,
-                x,
-                y,
-                stimulus: stimulus.clone(),
-            });
-            e.last_us = t_us;
-            e.x = x;
-            e.y = y;
-            e.duration_us = e.duration_us.max(duration_us);
-        }
-        rows.samples += 1;
-        samples.push(Sample {
-            time_us: t_us,
-            trial: 1,
-            left,
-            right,
-            binocular: best,
-            binocular_event: None,
-            left_event: None,
-            right_event: None,
-            stimulus,
-        });
-    }
-    let events = fixations
+    Ok(Row {
+        t: get(Some(c.time))?.ok_or(c.time)?,
+        left: eye(c.left, c.pupil[0])?,
+        right: eye(c.right, c.pupil[1])?,
+        best: eye(c.best, None)?,
+        fpog: (get(Some(c.fpog[0]))?, get(Some(c.fpog[1]))?),
+        fix: (
+            get(c.fpog_start)?,
+            get(c.fpog_duration)?,
+            get(c.fpog_id)?,
+            get(c.fpog_valid)?,
+        ),
+        count: get(c.count).ok().flatten(),
+    })
+}
+
+/// Folds a row of fixation `id` into it: the tracker updates the position and duration
+/// while the fixation lasts, so the last row's are the fixation's.
+fn add_fixation_row(fixations: &mut BTreeMap<u64, Open>, id: u64, row: Open) {
+    let (t_us, x, y, duration_us) = (row.last_us, row.x, row.y, row.duration_us);
+    let e = fixations.entry(id).or_insert(row);
+    e.last_us = t_us;
+    e.x = x;
+    e.y = y;
+    e.duration_us = e.duration_us.max(duration_us);
+}
+
+/// The fixation export has the all-gaze columns but one row per fixation: its sample
+/// counter `CNT` jumps. Its rows are fixations, not samples to detect fixations in.
+fn is_fixation_table(counts: &[f64]) -> bool {
+    let mut steps: Vec<f64> = counts.windows(2).map(|w| w[1] - w[0]).collect();
+    steps.sort_by(f64::total_cmp);
+    steps.get(steps.len() / 2).is_some_and(|&d| d > 1.0)
+}
+
+/// One fixation event per valid FPOGID, with its stimulus's onset (its first row).
+fn fixation_events(
+    fixations: BTreeMap<u64, Open>,
+    first_named: &BTreeMap<String, i64>,
+) -> Vec<Event> {
+    fixations
         .into_iter()
         .map(|(id, o)| {
             let duration = if o.duration_us > 0 {
@@ -273,13 +205,141 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
                 participant: None,
             }
         })
+        .collect()
+}
+
+/// The header line's separator, column names and the columns read.
+fn header_row(
+    all: &[(usize, &str)],
+    path: &str,
+) -> Result<(Separator, Vec<String>, Columns), GazeError> {
+    let Some(&(_, first)) = all.first() else {
+        return Err(GazeError::File {
+            path: path.to_string(),
+            message: "the file is empty".into(),
+        });
+    };
+    let sep = Separator::sniff(first);
+    let names: Vec<String> = split(first, sep)
+        .iter()
+        .map(|(_, c)| c.trim().to_string())
         .collect();
-    // The fixation export has the all-gaze columns but one row per fixation: its sample
-    // counter jumps. Its rows are fixations, not samples to detect fixations in.
-    let mut steps: Vec<f64> = counts.windows(2).map(|w| w[1] - w[0]).collect();
-    steps.sort_by(f64::total_cmp);
-    let fixation_table = steps.get(steps.len() / 2).is_some_and(|&d| d > 1.0);
-    let notes = if fixation_table {
+    let c = columns_of(&names, path)?;
+    Ok((sep, names, c))
+}
+
+/// A sample of the per-eye points of gaze (the best point and stimulus are the caller's).
+fn gaze_sample(time_us: i64, left: Option<EyeSample>, right: Option<EyeSample>) -> Sample {
+    Sample {
+        time_us,
+        trial: 1,
+        left,
+        right,
+        binocular: None,
+        binocular_event: None,
+        left_event: None,
+        right_event: None,
+        stimulus: None,
+    }
+}
+
+/// Reads a Gazepoint Analysis export; `path` names it in messages.
+pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
+    let text = decode(bytes);
+    let all = lines(&text);
+    let (sep, names, c) = header_row(&all, path)?;
+    let mut header = Header {
+        banner: Some("Gazepoint Analysis export".into()),
+        date: start_of(&names[c.time]),
+        normalized: true,
+        ..Header::default()
+    };
+    let mut rows = RowAccount {
+        lines: all.len(),
+        header_lines: 1,
+        ..Default::default()
+    };
+    let mut samples = Vec::with_capacity(all.len());
+    let mut messages = Vec::new();
+    let mut fixations: BTreeMap<u64, Open> = BTreeMap::new();
+    let mut first_named: BTreeMap<String, i64> = BTreeMap::new();
+    let mut counts: Vec<f64> = Vec::new();
+    let n = names.len();
+    for &(no, line) in &all[1..] {
+        if line.trim().is_empty() {
+            rows.blank_lines += 1;
+            continue;
+        }
+        let f = split(line, sep);
+        // Gazepoint ends every line with a comma: the header's last name is empty.
+        let fits = f.len() == n || (f.len() + 1 == n && names[n - 1].is_empty());
+        if !fits {
+            let reason = format!("row with a field count other than the header's {n}");
+            rows.reject(&reason, no, 1, line);
+            continue;
+        }
+        let text_of = |i: Option<usize>| {
+            i.and_then(|i| f.get(i))
+                .map(|x| x.1.trim())
+                .filter(|v| !v.is_empty())
+        };
+        let Row {
+            t,
+            left,
+            right,
+            best,
+            fpog,
+            fix: (fs, fd, id, fv),
+            count,
+        } = match parse_row(&c, &f, sep) {
+            Ok(v) => v,
+            Err(i) => {
+                let reason = format!("`{}` is not a number", names[i]);
+                rows.reject(&reason, no, f[i].0, line);
+                continue;
+            }
+        };
+        if t < 0.0 {
+            rows.reject("negative TIME", no, f[c.time].0, line);
+            continue;
+        }
+        let t_us = (t * 1e6).round() as i64;
+        if let Some(k) = count {
+            counts.push(k);
+        }
+        let stimulus = text_of(c.media).map(str::to_string);
+        if let Some(s) = &stimulus {
+            first_named.entry(s.clone()).or_insert(t_us);
+        }
+        if let Some(u) = text_of(c.user) {
+            messages.push(Message {
+                time_us: t_us,
+                trial: 1,
+                text: u.to_string(),
+            });
+        }
+        if let (Some(id), Some(1.0), (Some(x), Some(y))) = (id, fv, fpog) {
+            let start_us = fs.map_or(t_us, |s| (s * 1e6).round() as i64);
+            let duration_us = fd.map_or(0, |d| (d * 1e6).round() as i64);
+            let open = Open {
+                start_us,
+                last_us: t_us,
+                duration_us,
+                x,
+                y,
+                stimulus: stimulus.clone(),
+            };
+            add_fixation_row(&mut fixations, id as u64, open);
+        }
+        rows.samples += 1;
+        samples.push(Sample {
+            binocular: best,
+            stimulus,
+            ..gaze_sample(t_us, left, right)
+        });
+    }
+    let events = fixation_events(fixations, &first_named);
+    let notes = if is_fixation_table(&counts) {
         rows.events = rows.samples;
         rows.samples = 0;
         samples.clear();

@@ -96,32 +96,22 @@ struct Open {
     sum: (f64, f64, usize),
 }
 
-/// Reads a Pupil Labs surface export; `path` names it in messages.
-pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
-    let text = decode(bytes);
-    let all = lines(&text);
-    let Some(&(_, first)) = all.first() else {
-        return Err(GazeError::File {
-            path: path.to_string(),
-            message: "the file is empty".into(),
-        });
-    };
-    let table = table_of(first).ok_or_else(|| GazeError::At {
-        path: path.to_string(),
-        line: 1,
-        column: 1,
-        message: "not a Pupil Labs gaze or fixation export".into(),
-    })?;
-    if table == Table::WorldCamera {
-        return Err(GazeError::File {
-            path: path.to_string(),
-            message: world_camera_refusal(),
-        });
-    }
-    let names: Vec<String> = split(first, Separator::Comma)
-        .iter()
-        .map(|(_, c)| c.trim().to_string())
-        .collect();
+/// The columns a table's rows are read from.
+struct Columns {
+    time: usize,
+    x: usize,
+    y: usize,
+    /// `on_surf` / `… detected on surface`.
+    on: Option<usize>,
+    confidence: Option<usize>,
+    fixation_id: Option<usize>,
+    /// Duration in ms (Core) or the end time (Cloud) of a fixation.
+    duration: Option<usize>,
+    end: Option<usize>,
+}
+
+/// The columns of `table`, by name; an error names a missing required one.
+fn columns_of(table: Table, names: &[String], path: &str) -> Result<Columns, GazeError> {
     let col = |n: &str| names.iter().position(|c| c == n);
     let need = |n: &str| {
         col(n).ok_or_else(|| GazeError::At {
@@ -131,11 +121,6 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             message: format!("a Pupil Labs export without the `{n}` column"),
         })
     };
-    // (time, x, y, on surface, confidence; fixation id, duration / end) by table.
-    let cloud = matches!(
-        table,
-        Table::CloudSurfaceGaze | Table::CloudSurfaceFixations
-    );
     let (time, x, y, on, confidence, fixation_id, duration, end) = match table {
         Table::CoreSurfaceGaze => (
             need("gaze_timestamp")?,
@@ -178,13 +163,162 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             col("end timestamp [ns]"),
         ),
     };
-    let to_us = |v: f64| {
-        if cloud {
-            (v / 1000.0).round() as i64
-        } else {
-            (v * 1e6).round() as i64
-        }
+    Ok(Columns {
+        time,
+        x,
+        y,
+        on,
+        confidence,
+        fixation_id,
+        duration,
+        end,
+    })
+}
+
+/// The table a file's header line starts and its column names; world-camera tables are
+/// refused here.
+fn table_and_names(all: &[(usize, &str)], path: &str) -> Result<(Table, Vec<String>), GazeError> {
+    let Some(&(_, first)) = all.first() else {
+        return Err(GazeError::File {
+            path: path.to_string(),
+            message: "the file is empty".into(),
+        });
     };
+    let table = table_of(first).ok_or_else(|| GazeError::At {
+        path: path.to_string(),
+        line: 1,
+        column: 1,
+        message: "not a Pupil Labs gaze or fixation export".into(),
+    })?;
+    if table == Table::WorldCamera {
+        return Err(GazeError::File {
+            path: path.to_string(),
+            message: world_camera_refusal(),
+        });
+    }
+    let names = split(first, Separator::Comma)
+        .iter()
+        .map(|(_, c)| c.trim().to_string())
+        .collect();
+    Ok((table, names))
+}
+
+/// A surface gaze sample: the position where it is tracked on the surface, else lost.
+fn surface_sample(time_us: i64, tracked: Option<(f64, f64)>) -> Sample {
+    let (x, y) = tracked.unwrap_or((0.0, 0.0));
+    Sample {
+        time_us,
+        trial: 1,
+        left: None,
+        right: None,
+        binocular: Some(EyeSample {
+            x,
+            y,
+            pupil: None,
+            valid: tracked.is_some(),
+            flag_lost: tracked.is_none(),
+        }),
+        binocular_event: None,
+        left_event: None,
+        right_event: None,
+        stimulus: None,
+    }
+}
+
+/// Adds one world frame's row of fixation `id` (its point where it is on the surface).
+fn add_fixation_row(
+    fixations: &mut BTreeMap<String, Open>,
+    order: &mut Vec<String>,
+    id: &str,
+    start_us: i64,
+    end_us: i64,
+    point: Option<(f64, f64)>,
+) {
+    if !fixations.contains_key(id) {
+        order.push(id.to_string());
+    }
+    let o = fixations.entry(id.to_string()).or_insert(Open {
+        start_us,
+        end_us,
+        sum: (0.0, 0.0, 0),
+    });
+    if let Some((a, b)) = point {
+        o.sum = (o.sum.0 + a, o.sum.1 + b, o.sum.2 + 1);
+    }
+}
+
+/// What the notes say of a surface export.
+fn notes_of(cloud: bool, low_confidence: usize, off_surface: usize) -> Vec<String> {
+    let mut notes = vec![format!(
+        "Pupil Labs {} surface export: positions are fractions of the surface (origin {})",
+        if cloud {
+            "Cloud (Marker Mapper)"
+        } else {
+            "Core (Surface Tracker)"
+        },
+        if cloud {
+            "top-left"
+        } else {
+            "bottom-left, flipped to top-left"
+        }
+    )];
+    if low_confidence > 0 {
+        notes.push(format!(
+            "{low_confidence} samples below confidence {MIN_CONFIDENCE} count as lost"
+        ));
+    }
+    if off_surface > 0 {
+        notes.push(format!(
+            "{off_surface} fixations never on the surface have no position"
+        ));
+    }
+    notes
+}
+
+/// Pupil time (s) or Cloud time (ns) as µs.
+fn time_us(v: f64, cloud: bool) -> i64 {
+    if cloud {
+        (v / 1000.0).round() as i64
+    } else {
+        (v * 1e6).round() as i64
+    }
+}
+
+/// Whether a row is on the surface: its own column where it has one (Err: the column's index
+/// when the value is neither True nor False), else a position inside the unit square.
+fn on_surface_of(
+    on: Option<usize>,
+    f: &[(usize, &str)],
+    px: Option<f64>,
+    py: Option<f64>,
+) -> Result<bool, usize> {
+    match on {
+        Some(i) => truthy(f[i].1).ok_or(i),
+        None => Ok(px.is_some_and(|v| (0.0..=1.0).contains(&v))
+            && py.is_some_and(|v| (0.0..=1.0).contains(&v))),
+    }
+}
+
+/// Reads a Pupil Labs surface export; `path` names it in messages.
+pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
+    let text = decode(bytes);
+    let all = lines(&text);
+    let (table, names) = table_and_names(&all, path)?;
+    let cloud = matches!(
+        table,
+        Table::CloudSurfaceGaze | Table::CloudSurfaceFixations
+    );
+    let Columns {
+        time,
+        x,
+        y,
+        on,
+        confidence,
+        fixation_id,
+        duration,
+        end,
+    } = columns_of(table, &names, path)?;
+    let to_us = |v: f64| time_us(v, cloud);
     let mut rows = RowAccount {
         lines: all.len(),
         header_lines: 1,
@@ -217,18 +351,12 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             continue;
         };
         let (px, py) = (num(x), num(y));
-        let on_surface = match on {
-            Some(i) => match truthy(f[i].1) {
-                Some(b) => b,
-                None => {
-                    let reason = format!("`{}` is neither True nor False", names[i]);
-                    rows.reject(&reason, no, f[i].0, line);
-                    continue;
-                }
-            },
-            None => {
-                px.is_some_and(|v| (0.0..=1.0).contains(&v))
-                    && py.is_some_and(|v| (0.0..=1.0).contains(&v))
+        let on_surface = match on_surface_of(on, &f, px, py) {
+            Ok(b) => b,
+            Err(i) => {
+                let reason = format!("`{}` is neither True nor False", names[i]);
+                rows.reject(&reason, no, f[i].0, line);
+                continue;
             }
         };
         let conf = confidence.and_then(num);
@@ -239,56 +367,58 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             _ => None,
         };
         if let Some(id_col) = fixation_id {
-            let id = f[id_col].1.trim().to_string();
-            let d_ms = duration.and_then(num);
-            let end_us = match (end.and_then(num), d_ms) {
+            let end_us = match (end.and_then(num), duration.and_then(num)) {
                 (Some(e), _) => to_us(e),
-                (None, Some(d)) => t_us.saturating_add((d * 1000.0).round() as i64),
+                (None, Some(d_ms)) => t_us.saturating_add((d_ms * 1000.0).round() as i64),
                 (None, None) => t_us,
             };
-            if !fixations.contains_key(&id) {
-                order.push(id.clone());
-            }
-            let o = fixations.entry(id).or_insert(Open {
-                start_us: t_us,
+            let point = pos.filter(|_| on_surface);
+            add_fixation_row(
+                &mut fixations,
+                &mut order,
+                f[id_col].1.trim(),
+                t_us,
                 end_us,
-                sum: (0.0, 0.0, 0),
-            });
-            if let (true, Some((a, b))) = (on_surface, pos) {
-                o.sum = (o.sum.0 + a, o.sum.1 + b, o.sum.2 + 1);
-            }
+                point,
+            );
             rows.events += 1;
             continue;
         }
         let confident = conf.is_none_or(|c| c >= MIN_CONFIDENCE);
         low_confidence += (!confident) as usize;
         let valid = on_surface && confident && pos.is_some();
-        let (ex, ey) = if valid {
-            pos.unwrap_or((0.0, 0.0))
-        } else {
-            (0.0, 0.0)
-        };
         rows.samples += 1;
-        samples.push(Sample {
-            time_us: t_us,
-            trial: 1,
-            left: None,
-            right: None,
-            binocular: Some(EyeSample {
-                x: ex,
-                y: ey,
-                pupil: None,
-                valid,
-                flag_lost: !valid,
-            }),
-            binocular_event: None,
-            left_event: None,
-            right_event: None,
-            stimulus: None,
-        });
+        samples.push(surface_sample(t_us, pos.filter(|_| valid)));
     }
     // Pupil Player writes gaze rows per world frame, not in gaze-time order.
     samples.sort_by_key(|s| s.time_us);
+    let (mut events, off_surface) = fixation_events(&order, &fixations);
+    events.sort_by_key(|e| e.start_us);
+    let notes = notes_of(cloud, low_confidence, off_surface);
+    Ok(Recording {
+        file: path.to_string(),
+        format: if cloud {
+            GazeFormat::PupilCloud
+        } else {
+            GazeFormat::PupilCore
+        },
+        header: Header {
+            banner: Some("Pupil Labs surface export".into()),
+            normalized: true,
+            ..Header::default()
+        },
+        columns: names,
+        samples,
+        messages: Vec::new(),
+        events,
+        rows,
+        notes,
+    })
+}
+
+/// One fixation event per id, in file order, at the mean of its on-surface rows; and how
+/// many were never on the surface.
+fn fixation_events(order: &[String], fixations: &BTreeMap<String, Open>) -> (Vec<Event>, usize) {
     let mut off_surface = 0;
     let mut events = Vec::new();
     for (k, id) in order.iter().enumerate() {
@@ -325,49 +455,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             participant: None,
         });
     }
-    events.sort_by_key(|e| e.start_us);
-    let mut notes = vec![format!(
-        "Pupil Labs {} surface export: positions are fractions of the surface (origin {})",
-        if cloud {
-            "Cloud (Marker Mapper)"
-        } else {
-            "Core (Surface Tracker)"
-        },
-        if cloud {
-            "top-left"
-        } else {
-            "bottom-left, flipped to top-left"
-        }
-    )];
-    if low_confidence > 0 {
-        notes.push(format!(
-            "{low_confidence} samples below confidence {MIN_CONFIDENCE} count as lost"
-        ));
-    }
-    if off_surface > 0 {
-        notes.push(format!(
-            "{off_surface} fixations never on the surface have no position"
-        ));
-    }
-    Ok(Recording {
-        file: path.to_string(),
-        format: if cloud {
-            GazeFormat::PupilCloud
-        } else {
-            GazeFormat::PupilCore
-        },
-        header: Header {
-            banner: Some("Pupil Labs surface export".into()),
-            normalized: true,
-            ..Header::default()
-        },
-        columns: names,
-        samples,
-        messages: Vec::new(),
-        events,
-        rows,
-        notes,
-    })
+    (events, off_surface)
 }
 
 /// Messages of the files Pupil Labs writes beside a surface export: `surface_events.csv`

@@ -73,6 +73,31 @@ fn event_rows(all: &[(usize, &str)], start: usize, rows: &mut RowAccount) -> Vec
     out
 }
 
+/// The `key: value` block before the table: screen, subject, and every entry kept.
+fn read_header_block(block: &[(usize, &str)], header: &mut Header, rows: &mut RowAccount) {
+    for &(_, line) in block {
+        if line.trim().is_empty() {
+            rows.blank_lines += 1;
+            continue;
+        }
+        rows.header_lines += 1;
+        if let Some((k, v)) = line.split_once(':') {
+            let (k, v) = (k.trim(), v.trim());
+            match k {
+                "Screen resolution" | "Recording resolution" => {
+                    let wh: Vec<f64> = v.split('x').filter_map(|p| p.trim().parse().ok()).collect();
+                    if wh.len() == 2 && wh[0] > 0.0 && wh[1] > 0.0 {
+                        header.calibration_area_px = Some([wh[0], wh[1]]);
+                    }
+                }
+                "Subject" | "Participant" if !v.is_empty() => header.subject = Some(v.to_string()),
+                _ => {}
+            }
+            header.entries.push((k.to_string(), v.to_string()));
+        }
+    }
+}
+
 /// Reads a Studio list export; `path` names it in messages.
 pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     let text = decode(bytes);
@@ -95,27 +120,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             message: "a Tobii Studio list export without its `FixationIndex\tTimestamp…` or `Timestamp\tEvent…` table".into(),
         });
     };
-    for &(_, line) in &all[..table_at] {
-        if line.trim().is_empty() {
-            rows.blank_lines += 1;
-            continue;
-        }
-        rows.header_lines += 1;
-        if let Some((k, v)) = line.split_once(':') {
-            let (k, v) = (k.trim(), v.trim());
-            match k {
-                "Screen resolution" | "Recording resolution" => {
-                    let wh: Vec<f64> = v.split('x').filter_map(|p| p.trim().parse().ok()).collect();
-                    if wh.len() == 2 && wh[0] > 0.0 && wh[1] > 0.0 {
-                        header.calibration_area_px = Some([wh[0], wh[1]]);
-                    }
-                }
-                "Subject" | "Participant" if !v.is_empty() => header.subject = Some(v.to_string()),
-                _ => {}
-            }
-            header.entries.push((k.to_string(), v.to_string()));
-        }
-    }
+    read_header_block(&all[..table_at], &mut header, &mut rows);
     rows.header_lines += 1; // the table's header line
     let columns: Vec<String> = split(all[table_at].1, Separator::Tab)
         .iter()

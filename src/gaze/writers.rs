@@ -166,6 +166,56 @@ fn eyelink_ms(t_us: i64) -> String {
     }
 }
 
+/// An ASC body line keyed for ordering: (time, order within a time, index, text).
+type AscLine = (i64, u8, usize, String);
+
+/// Each event's `S…` line at its start and `E…` line at its end (per eye, as EyeLink's
+/// parser writes them; a binocular stream has no ASC form and is left out).
+fn eyelink_event_lines(events: &[Event]) -> Vec<AscLine> {
+    let mut body = Vec::new();
+    let mut sorted: Vec<&Event> = events.iter().filter(|e| e.eye != Eye::Binocular).collect();
+    sorted.sort_by_key(|e| (e.start_us, e.eye, e.number));
+    for (k, e) in sorted.iter().enumerate() {
+        let eye = if e.eye == Eye::Left { "L" } else { "R" };
+        let key = match e.kind {
+            EventKind::Fixation => "FIX",
+            EventKind::Saccade => "SACC",
+            EventKind::Blink => "BLINK",
+        };
+        let v = |x: Option<f64>| x.map_or("   .".to_string(), |x| format!("{x}"));
+        let head = format!(
+            "E{key} {eye} {}\t{}\t{}",
+            eyelink_ms(e.start_us),
+            eyelink_ms(e.end_us),
+            eyelink_ms(e.duration_us)
+        );
+        let end_line = match e.kind {
+            EventKind::Fixation => format!(
+                "{head}\t{}\t{}\t{}",
+                v(e.x),
+                v(e.y),
+                e.pupil_x.map_or("0".to_string(), |p| format!("{p}"))
+            ),
+            EventKind::Saccade => format!(
+                "{head}\t{}\t{}\t{}\t{}\t0.00\t0",
+                v(e.x),
+                v(e.y),
+                v(e.end_x),
+                v(e.end_y)
+            ),
+            EventKind::Blink => head,
+        };
+        body.push((
+            e.start_us,
+            1,
+            k,
+            format!("S{key} {eye} {}", eyelink_ms(e.start_us)),
+        ));
+        body.push((e.end_us, 3, k, end_line));
+    }
+    body
+}
+
 /// EyeLink ASC text, as edf2asc writes a binocular GAZE recording in one block: the `**`
 /// preamble, `GAZE_COORDS` (last pixel, SR Research's form) from the calibration area,
 /// `START`, the `SAMPLES`/`EVENTS` layout, then messages, sample rows and events merged in
@@ -225,7 +275,7 @@ pub fn write_eyelink_asc(
         "SAMPLES\tGAZE\tLEFT\tRIGHT\tRATE\t{rate:7.2}\tTRACKING\tCR\tFILTER\t2"
     );
     // (time, order within a time, text): messages, then event starts, samples, event ends.
-    let mut body: Vec<(i64, u8, usize, String)> = Vec::new();
+    let mut body: Vec<AscLine> = Vec::new();
     for (k, m) in messages.iter().enumerate() {
         let text = m.text.replace(['\n', '\r'], " ");
         // A text starting with an integer word would read back as a time offset: say 0.
@@ -243,46 +293,7 @@ pub fn write_eyelink_asc(
             format!("MSG\t{} {offset}{text}", eyelink_ms(m.time_us)),
         ));
     }
-    let mut sorted: Vec<&Event> = events.iter().filter(|e| e.eye != Eye::Binocular).collect();
-    sorted.sort_by_key(|e| (e.start_us, e.eye, e.number));
-    for (k, e) in sorted.iter().enumerate() {
-        let eye = if e.eye == Eye::Left { "L" } else { "R" };
-        let key = match e.kind {
-            EventKind::Fixation => "FIX",
-            EventKind::Saccade => "SACC",
-            EventKind::Blink => "BLINK",
-        };
-        let v = |x: Option<f64>| x.map_or("   .".to_string(), |x| format!("{x}"));
-        let head = format!(
-            "E{key} {eye} {}\t{}\t{}",
-            eyelink_ms(e.start_us),
-            eyelink_ms(e.end_us),
-            eyelink_ms(e.duration_us)
-        );
-        let end_line = match e.kind {
-            EventKind::Fixation => format!(
-                "{head}\t{}\t{}\t{}",
-                v(e.x),
-                v(e.y),
-                e.pupil_x.map_or("0".to_string(), |p| format!("{p}"))
-            ),
-            EventKind::Saccade => format!(
-                "{head}\t{}\t{}\t{}\t{}\t0.00\t0",
-                v(e.x),
-                v(e.y),
-                v(e.end_x),
-                v(e.end_y)
-            ),
-            EventKind::Blink => head,
-        };
-        body.push((
-            e.start_us,
-            1,
-            k,
-            format!("S{key} {eye} {}", eyelink_ms(e.start_us)),
-        ));
-        body.push((e.end_us, 3, k, end_line));
-    }
+    body.extend(eyelink_event_lines(events));
     for (k, p) in samples.iter().enumerate() {
         let eye = |e: Option<super::recording::EyeSample>| match e {
             Some(e) if e.valid => format!(
@@ -314,6 +325,49 @@ pub fn write_eyelink_asc(
     s
 }
 
+/// A message naming a stimulus file as Pro Lab names it: (stem, file name, `Video`/`Image`).
+fn tobii_media_of(text: &str) -> Option<(String, String, &'static str)> {
+    let name = text.trim().rsplit(['/', '\\']).next()?.to_string();
+    let (stem, ext) = name.rsplit_once('.')?;
+    let kind = match ext.to_ascii_lowercase().as_str() {
+        "mp4" | "avi" | "mov" | "mkv" | "wmv" | "webm" | "m4v" | "mpg" | "mpeg" => "Video",
+        "png" | "jpg" | "jpeg" | "bmp" | "gif" | "tif" | "tiff" | "webp" => "Image",
+        _ => return None,
+    };
+    Some((stem.to_string(), name.clone(), kind))
+}
+
+/// A fixation as Tobii's filter reports it: (start, end, duration, x, y), both eyes averaged.
+type FilterFixation = (i64, i64, i64, f64, f64);
+
+/// The fixation filter's view of `events`: the first eye's fixations (points of both eyes
+/// averaged) and its saccades' spans.
+fn tobii_filter_spans(events: &[Event]) -> (Vec<FilterFixation>, Vec<(i64, i64)>) {
+    // The fixation filter's view: the first eye's fixations, both eyes' points averaged.
+    let first_eye = events.iter().map(|e| e.eye).min();
+    let mut fixations: Vec<FilterFixation> = Vec::new();
+    for e in events
+        .iter()
+        .filter(|e| e.kind == EventKind::Fixation && Some(e.eye) == first_eye)
+    {
+        let same: Vec<&Event> = events
+            .iter()
+            .filter(|o| o.kind == EventKind::Fixation && o.start_us == e.start_us && o.x.is_some())
+            .collect();
+        let n = same.len().max(1) as f64;
+        let x = same.iter().filter_map(|o| o.x).sum::<f64>() / n;
+        let y = same.iter().filter_map(|o| o.y).sum::<f64>() / n;
+        fixations.push((e.start_us, e.end_us, e.duration_us, x, y));
+    }
+    fixations.sort_by_key(|f| f.0);
+    let saccades: Vec<(i64, i64)> = events
+        .iter()
+        .filter(|e| e.kind == EventKind::Saccade && Some(e.eye) == first_eye)
+        .map(|e| (e.start_us, e.end_us))
+        .collect();
+    (fixations, saccades)
+}
+
 /// Tobii Pro Lab data export text (TSV, `Recording timestamp [μs]`), as Pro Lab writes a
 /// screen recording: one `Eye Tracker` row per sample with both eyes, their average, validity
 /// and pupil; an event row (`ImageStimulusStart` / `VideoStimulusStart` and the stimulus name
@@ -336,38 +390,7 @@ pub fn write_tobii_pro_lab_tsv(
     } else {
         (String::new(), String::new())
     };
-    let media_of = |text: &str| -> Option<(String, String, &'static str)> {
-        let name = text.trim().rsplit(['/', '\\']).next()?.to_string();
-        let (stem, ext) = name.rsplit_once('.')?;
-        let kind = match ext.to_ascii_lowercase().as_str() {
-            "mp4" | "avi" | "mov" | "mkv" | "wmv" | "webm" | "m4v" | "mpg" | "mpeg" => "Video",
-            "png" | "jpg" | "jpeg" | "bmp" | "gif" | "tif" | "tiff" | "webp" => "Image",
-            _ => return None,
-        };
-        Some((stem.to_string(), name.clone(), kind))
-    };
-    // The fixation filter's view: the first eye's fixations, both eyes' points averaged.
-    let first_eye = events.iter().map(|e| e.eye).min();
-    let mut fixations: Vec<(i64, i64, i64, f64, f64)> = Vec::new();
-    for e in events
-        .iter()
-        .filter(|e| e.kind == EventKind::Fixation && Some(e.eye) == first_eye)
-    {
-        let same: Vec<&Event> = events
-            .iter()
-            .filter(|o| o.kind == EventKind::Fixation && o.start_us == e.start_us && o.x.is_some())
-            .collect();
-        let n = same.len().max(1) as f64;
-        let x = same.iter().filter_map(|o| o.x).sum::<f64>() / n;
-        let y = same.iter().filter_map(|o| o.y).sum::<f64>() / n;
-        fixations.push((e.start_us, e.end_us, e.duration_us, x, y));
-    }
-    fixations.sort_by_key(|f| f.0);
-    let saccades: Vec<(i64, i64)> = events
-        .iter()
-        .filter(|e| e.kind == EventKind::Saccade && Some(e.eye) == first_eye)
-        .map(|e| (e.start_us, e.end_us))
-        .collect();
+    let (fixations, saccades) = tobii_filter_spans(events);
     let mut msgs: Vec<&Message> = messages.iter().collect();
     msgs.sort_by_key(|m| m.time_us);
     let (mut j, mut fk) = (0usize, 0usize);
@@ -375,7 +398,7 @@ pub fn write_tobii_pro_lab_tsv(
     let v = |x: Option<f64>| x.map_or(String::new(), |x| format!("{x}"));
     let event_row = |s: &mut String, m: &Message, presented: &mut Option<(String, String)>| {
         let text = m.text.replace(['\n', '\r', '\t'], " ");
-        let (event, value) = match media_of(&text) {
+        let (event, value) = match tobii_media_of(&text) {
             Some((stem, name, kind)) => {
                 *presented = Some((stem.clone(), name));
                 (format!("{kind}StimulusStart"), stem)
