@@ -555,7 +555,7 @@ mod table_reader_properties {
         /// accounts for every line, one sample per sample line.
         #[test]
         fn damaged_table_exports_never_panic_and_account_for_every_line(
-            which in 0usize..4,
+            which in 0usize..5,
             seed in any::<u64>(),
             edits in 1usize..25,
         ) {
@@ -563,7 +563,8 @@ mod table_reader_properties {
                 0 => (tobii_file(), GazeFormat::TobiiProLab, b"\t\n.,-5VxE\""),
                 1 => (GAZEPOINT.to_string(), GazeFormat::Gazepoint, b",\n.-51x"),
                 2 => (PUPIL.to_string(), GazeFormat::PupilCore, b",\n.-5TF"),
-                _ => (STUDIO_LIST.to_string(), GazeFormat::TobiiStudioList, b"\t\n:-5x"),
+                3 => (STUDIO_LIST.to_string(), GazeFormat::TobiiStudioList, b"\t\n:-5x"),
+                _ => (super::tobii_sdk_dump(which % 2 == 0), GazeFormat::TobiiSdk, b",\t\n.()-5T"),
             };
             let bytes = damage(&base, seed, edits, alphabet);
             if let Ok(r) = parse_recording(&bytes, "damaged", Some(format)) {
@@ -619,4 +620,73 @@ fn a_gazepoint_fixation_never_ends_before_it_starts() {
             .collect();
         assert!(bad.is_empty(), "{bad:?}");
     }
+}
+
+/// A Tobii Pro SDK dump as an experiment program writes the `gaze_data` callback, built here
+/// from the SDK's field names: 120 Hz, three 400 ms fixations, each ending in a lost sample.
+fn tobii_sdk_dump(tuples: bool) -> String {
+    let mut s = if tuples {
+        String::from("device_time_stamp,system_time_stamp,left_gaze_point_on_display_area,left_gaze_point_validity,left_pupil_diameter,left_pupil_validity,right_gaze_point_on_display_area,right_gaze_point_validity,right_pupil_diameter,right_pupil_validity\n")
+    } else {
+        String::from("device_time_stamp\tsystem_time_stamp\tleft_gaze_point_on_display_area_x\tleft_gaze_point_on_display_area_y\tleft_gaze_point_validity\tleft_pupil_diameter\tleft_pupil_validity\tright_gaze_point_on_display_area_x\tright_gaze_point_on_display_area_y\tright_gaze_point_validity\tright_pupil_diameter\tright_pupil_validity\n")
+    };
+    let mut t: i64 = 5_000_000_000;
+    for (cx, cy) in [(0.25, 0.30), (0.60, 0.55), (0.40, 0.80)] {
+        for k in 0..48 {
+            t += 8_333;
+            let lost = k == 47;
+            let (x, y) = (cx + 0.0005 * (k % 3) as f64, cy);
+            let (v, xs, ys) = if lost {
+                ("False", "nan".to_string(), "nan".to_string())
+            } else {
+                ("True", format!("{x}"), format!("{y}"))
+            };
+            if tuples {
+                s += &format!(
+                    "{},{t},\"({xs}, {ys})\",{v},3.1,True,\"({xs}, {ys})\",{v},3.2,True\n",
+                    t - 1000
+                );
+            } else {
+                s += &format!(
+                    "{}\t{t}\t{xs}\t{ys}\t{}\t3.1\t1\t{xs}\t{ys}\t{}\t3.2\t1\n",
+                    t - 1000,
+                    (!lost) as u8,
+                    (!lost) as u8
+                );
+            }
+        }
+        t += 60_000; // a saccade without samples
+    }
+    s
+}
+
+#[test]
+fn a_tobii_pro_sdk_dump_gives_its_fixations_scaled_to_the_screen() {
+    let dir = std::env::temp_dir().join(format!("meshgaze-tobii-sdk-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    for tuples in [false, true] {
+        let path = dir.join(format!("s01_{tuples}.csv"));
+        std::fs::write(&path, tobii_sdk_dump(tuples)).unwrap();
+        let f = ingest_file(&path, &params()).unwrap_or_else(|e| panic!("{e}"));
+        let r = &f.recording;
+        assert_eq!(r.format, GazeFormat::TobiiSdk, "tuples {tuples}");
+        assert_eq!(r.rows.accounted(), r.rows.lines);
+        assert!(r.rows.unusable.is_empty(), "{:?}", r.rows.unusable);
+        assert_eq!(r.samples.len(), 3 * 48);
+        assert_eq!(
+            r.samples.iter().filter(|s| !s.left.unwrap().valid).count(),
+            3
+        );
+        assert_eq!(r.samples[0].time_us, 5_000_008_333, "system_time_stamp, µs");
+        assert_eq!(r.header.sample_rate_hz, Some(120.0));
+        let found: Vec<(f64, f64)> = f.fixations.iter().map(|x| (x.x_px, x.y_px)).collect();
+        assert_eq!(found.len(), 3, "{found:?}");
+        for ((x, y), (cx, cy)) in found.iter().zip([(0.25, 0.30), (0.60, 0.55), (0.40, 0.80)]) {
+            assert!(
+                (x - cx * 1680.0).abs() < 2.0 && (y - cy * 1050.0).abs() < 2.0,
+                "{found:?}"
+            );
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -22,6 +22,7 @@ pub mod stimulus_messages;
 pub mod text;
 pub mod tobii;
 pub mod tobii_lists;
+pub mod tobii_sdk;
 pub mod validity;
 pub mod writers;
 
@@ -54,6 +55,9 @@ pub fn detect_format(bytes: &[u8]) -> Result<GazeFormat, String> {
         } else {
             GazeFormat::PupilCore
         });
+    }
+    if tobii_sdk::looks_like(first) {
+        return Ok(GazeFormat::TobiiSdk);
     }
     if gazepoint::looks_like(first) {
         return Ok(GazeFormat::Gazepoint);
@@ -92,7 +96,7 @@ pub fn detect_format(bytes: &[u8]) -> Result<GazeFormat, String> {
     {
         return Ok(GazeFormat::BeGazeFixations);
     }
-    Err("not a recognized gaze recording: expected an EyeLink ASC file (`** CONVERTED FROM … edf`, `MSG`/`START`/`SAMPLES` lines), a Tobii Pro Lab or Studio data export (`Recording timestamp` … `Gaze point X`, or `RecordingTimestamp` … `GazePointX (ADCSpx)`), a Tobii Studio 1.x/2.x fixation list (`FixationIndex\tTimestamp\tFixationDuration` after a `Data properties:` block), a Gazepoint Analysis export (`TIME(…)`, `FPOGX`), a Pupil Labs surface export (`gaze_positions_on_surface_<name>.csv`, Marker Mapper `gaze.csv`), or an SMI export: a `## [iView]`/`## [BeGaze]` sample file (A, A'), an iView X 2.x `#FileVersion: 2` sample file (A2), a `Table Header for …` event file (C1), a BeGaze Raw Data table (`RecordingTime [ms]`, C2), an Event Statistics table (`Event Start Trial Time [ms]`, B) or a BeGaze fixation table (`Fixation Start [ms]`, B-fix)".into())
+    Err("not a recognized gaze recording: expected an EyeLink ASC file (`** CONVERTED FROM … edf`, `MSG`/`START`/`SAMPLES` lines), a Tobii Pro Lab or Studio data export (`Recording timestamp` … `Gaze point X`, or `RecordingTimestamp` … `GazePointX (ADCSpx)`), a Tobii Studio 1.x/2.x fixation list (`FixationIndex\tTimestamp\tFixationDuration` after a `Data properties:` block), a Tobii Pro SDK gaze dump (`system_time_stamp`, `left_gaze_point_on_display_area_x`), a Gazepoint Analysis export (`TIME(…)`, `FPOGX`), a Pupil Labs surface export (`gaze_positions_on_surface_<name>.csv`, Marker Mapper `gaze.csv`), or an SMI export: a `## [iView]`/`## [BeGaze]` sample file (A, A'), an iView X 2.x `#FileVersion: 2` sample file (A2), a `Table Header for …` event file (C1), a BeGaze Raw Data table (`RecordingTime [ms]`, C2), an Event Statistics table (`Event Start Trial Time [ms]`, B) or a BeGaze fixation table (`Fixation Start [ms]`, B-fix)".into())
 }
 
 /// Reads bytes as `format` (detected when None); `path` is for messages.
@@ -119,6 +123,7 @@ pub fn parse_recording(
         GazeFormat::TobiiProLab | GazeFormat::TobiiStudio => tobii::read(bytes, path)?,
         GazeFormat::Gazepoint => gazepoint::read(bytes, path)?,
         GazeFormat::TobiiStudioList => tobii_lists::read(bytes, path)?,
+        GazeFormat::TobiiSdk => tobii_sdk::read(bytes, path)?,
         GazeFormat::PupilCore | GazeFormat::PupilCloud => pupil_labs::read(bytes, path)?,
     };
     if format == GazeFormat::BeGazeSamples {

@@ -58,6 +58,11 @@ pub enum GazeFormat {
     #[cfg_attr(feature = "cli", value(name = "tobii-studio-list"))]
     #[serde(rename = "Tobii Studio list")]
     TobiiStudioList,
+    /// Tobii Pro SDK gaze dump (`system_time_stamp`, `left_gaze_point_on_display_area_x/_y`
+    /// fractions of the display, validity flags), as experiment programs write it.
+    #[cfg_attr(feature = "cli", value(name = "tobii-sdk"))]
+    #[serde(rename = "Tobii Pro SDK")]
+    TobiiSdk,
     /// Gazepoint Analysis export (`*_all_gaze.csv`, `*_fixations.csv`): `TIME(…)` s,
     /// `FPOGX/FPOGY` fractions of the screen, `FPOGID` fixations, `MEDIA_NAME`, `USER`.
     #[cfg_attr(feature = "cli", value(name = "gazepoint"))]

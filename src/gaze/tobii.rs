@@ -705,7 +705,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
 }
 
 /// The rate from the median interval between eye-tracker samples.
-fn sample_rate(samples: &[Sample]) -> Option<f64> {
+pub(crate) fn sample_rate(samples: &[Sample]) -> Option<f64> {
     let mut d: Vec<i64> = samples
         .windows(2)
         .map(|w| w[1].time_us - w[0].time_us)
