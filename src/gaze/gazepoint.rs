@@ -345,7 +345,8 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         samples.clear();
         vec!["Gazepoint fixation export (one row per fixation: its sample counter CNT jumps); positions are fractions of the screen".to_string()]
     } else {
-        header.sample_rate_hz = rate_of(&samples);
+        // A fixation table's rows are far apart and irregular: no rate from fewer than 10.
+        header.sample_rate_hz = super::recording::median_rate_hz(&samples, 10);
         vec!["Gazepoint all-gaze export; positions are fractions of the screen".to_string()]
     };
     Ok(Recording {
@@ -359,19 +360,4 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         rows,
         notes,
     })
-}
-
-/// The rate from the median interval between rows (None for a fixation table, whose rows are
-/// far apart and irregular).
-fn rate_of(samples: &[Sample]) -> Option<f64> {
-    let mut d: Vec<i64> = samples
-        .windows(2)
-        .map(|w| w[1].time_us - w[0].time_us)
-        .filter(|d| *d > 0)
-        .collect();
-    if d.len() < 10 {
-        return None;
-    }
-    d.sort_unstable();
-    Some((1e6 / d[d.len() / 2] as f64).round())
 }

@@ -123,6 +123,21 @@ pub struct Sample {
     pub stimulus: Option<String>,
 }
 
+/// The sampling rate from the median positive interval between consecutive samples, rounded
+/// to whole Hz; None with fewer than `min_intervals` intervals (too few to tell a rate).
+pub(crate) fn median_rate_hz(samples: &[Sample], min_intervals: usize) -> Option<f64> {
+    let mut d: Vec<i64> = samples
+        .windows(2)
+        .map(|w| w[1].time_us - w[0].time_us)
+        .filter(|d| *d > 0)
+        .collect();
+    if d.is_empty() || d.len() < min_intervals {
+        return None;
+    }
+    d.sort_unstable();
+    Some((1e6 / d[d.len() / 2] as f64).round())
+}
+
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Message {
     pub time_us: i64,

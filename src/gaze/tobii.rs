@@ -700,21 +700,6 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     for &(no, line) in &all[1..] {
         r.row(no, line);
     }
-    r.header.sample_rate_hz = sample_rate(&r.samples);
+    r.header.sample_rate_hz = super::recording::median_rate_hz(&r.samples, 1);
     Ok(r.finish(time_note))
-}
-
-/// The rate from the median interval between eye-tracker samples.
-pub(crate) fn sample_rate(samples: &[Sample]) -> Option<f64> {
-    let mut d: Vec<i64> = samples
-        .windows(2)
-        .map(|w| w[1].time_us - w[0].time_us)
-        .filter(|d| *d > 0)
-        .collect();
-    if d.is_empty() {
-        return None;
-    }
-    d.sort_unstable();
-    let median = d[d.len() / 2] as f64;
-    Some((1e6 / median).round())
 }

@@ -210,7 +210,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         });
     }
     samples.sort_by_key(|s| s.time_us);
-    let rate = super::tobii::sample_rate(&samples);
+    let rate = super::recording::median_rate_hz(&samples, 1);
     Ok(Recording {
         file: path.to_string(),
         format: GazeFormat::TobiiSdk,
