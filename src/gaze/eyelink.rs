@@ -663,24 +663,13 @@ impl<'a> Reader<'a> {
         };
         self.rows.events += 1;
         self.events.push(Event {
-            kind,
-            eye,
             trial: self.trial_of_line(),
-            number: self.event_numbers[slot],
-            start_us: start,
-            end_us: end,
-            duration_us: duration,
             x,
             y,
             end_x,
             end_y,
-            dispersion_x: None,
-            dispersion_y: None,
             pupil_x: pupil,
-            pupil_y: None,
-            stimulus: None,
-            stimulus_onset_us: None,
-            participant: None,
+            ..Event::span(kind, eye, self.event_numbers[slot], start, end, duration)
         });
     }
 

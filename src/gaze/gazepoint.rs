@@ -185,24 +185,18 @@ fn fixation_events(
                 .as_ref()
                 .and_then(|s| first_named.get(s).copied());
             Event {
-                kind: EventKind::Fixation,
-                eye: Eye::Binocular,
-                trial: 1,
-                number: id,
-                start_us: o.start_us,
-                end_us: o.start_us.saturating_add(duration),
-                duration_us: duration,
                 x: Some(o.x),
                 y: Some(o.y),
-                end_x: None,
-                end_y: None,
-                dispersion_x: None,
-                dispersion_y: None,
-                pupil_x: None,
-                pupil_y: None,
                 stimulus: o.stimulus,
                 stimulus_onset_us: onset,
-                participant: None,
+                ..Event::span(
+                    EventKind::Fixation,
+                    Eye::Binocular,
+                    id,
+                    o.start_us,
+                    o.start_us.saturating_add(duration),
+                    duration,
+                )
             }
         })
         .collect()

@@ -435,24 +435,16 @@ fn fixation_events(order: &[String], fixations: &BTreeMap<String, Open>) -> (Vec
             (None, None)
         };
         events.push(Event {
-            kind: EventKind::Fixation,
-            eye: Eye::Binocular,
-            trial: 1,
-            number: k as u64 + 1,
-            start_us: o.start_us,
-            end_us: o.end_us.max(o.start_us),
-            duration_us: o.end_us.max(o.start_us) - o.start_us,
             x: fx,
             y: fy,
-            end_x: None,
-            end_y: None,
-            dispersion_x: None,
-            dispersion_y: None,
-            pupil_x: None,
-            pupil_y: None,
-            stimulus: None,
-            stimulus_onset_us: None,
-            participant: None,
+            ..Event::span(
+                EventKind::Fixation,
+                Eye::Binocular,
+                k as u64 + 1,
+                o.start_us,
+                o.end_us.max(o.start_us),
+                o.end_us.max(o.start_us) - o.start_us,
+            )
         });
     }
     (events, off_surface)

@@ -183,6 +183,41 @@ pub struct Event {
     pub participant: Option<String>,
 }
 
+impl Event {
+    /// An event of `kind` over [`start_us`, `end_us`] lasting `duration_us` (as the file gives
+    /// it), with no position, pupil, stimulus or participant yet: readers fill what they have
+    /// with struct update syntax.
+    pub fn span(
+        kind: EventKind,
+        eye: Eye,
+        number: u64,
+        start_us: i64,
+        end_us: i64,
+        duration_us: i64,
+    ) -> Event {
+        Event {
+            kind,
+            eye,
+            trial: 1,
+            number,
+            start_us,
+            end_us,
+            duration_us,
+            x: None,
+            y: None,
+            end_x: None,
+            end_y: None,
+            dispersion_x: None,
+            dispersion_y: None,
+            pupil_x: None,
+            pupil_y: None,
+            stimulus: None,
+            stimulus_onset_us: None,
+            participant: None,
+        }
+    }
+}
+
 /// Header facts meshgaze uses; every raw `key: value` line is kept too.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Header {

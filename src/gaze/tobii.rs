@@ -586,24 +586,18 @@ impl Reader<'_> {
                 .as_deref()
                 .map(|s| onset_of(s, self.first_named.get(s).copied().unwrap_or(f.start_us)));
             events.push(Event {
-                kind: EventKind::Fixation,
-                eye: Eye::Binocular,
-                trial: 1,
-                number: k as u64 + 1,
-                start_us: f.start_us,
-                end_us: f.start_us.saturating_add(duration),
-                duration_us: duration,
                 x,
                 y,
-                end_x: None,
-                end_y: None,
-                dispersion_x: None,
-                dispersion_y: None,
-                pupil_x: None,
-                pupil_y: None,
                 stimulus: f.stimulus.clone(),
                 stimulus_onset_us: onset,
-                participant: None,
+                ..Event::span(
+                    EventKind::Fixation,
+                    Eye::Binocular,
+                    k as u64 + 1,
+                    f.start_us,
+                    f.start_us.saturating_add(duration),
+                    duration,
+                )
             });
         }
         let mut notes = vec![format!(

@@ -176,24 +176,16 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         let (start, duration) = ((t * 1000.0).round() as i64, (d * 1000.0).round() as i64);
         rows.events += 1;
         events.push(Event {
-            kind: EventKind::Fixation,
-            eye: Eye::Binocular,
-            trial: 1,
-            number: index as u64,
-            start_us: start,
-            end_us: start + duration,
-            duration_us: duration,
             x: v[3],
             y: v[4],
-            end_x: None,
-            end_y: None,
-            dispersion_x: None,
-            dispersion_y: None,
-            pupil_x: None,
-            pupil_y: None,
-            stimulus: None,
-            stimulus_onset_us: None,
-            participant: None,
+            ..Event::span(
+                EventKind::Fixation,
+                Eye::Binocular,
+                index as u64,
+                start,
+                start + duration,
+                duration,
+            )
         });
     }
     let mut notes =
