@@ -4,6 +4,7 @@
 //! Fig. 6).
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::mesh::geometry::{BoundingBox, Normalization};
@@ -336,24 +337,36 @@ fn human_ceiling(
     weights: Option<&[f64]>,
 ) -> [(&'static str, f64); 3] {
     let n = subject_maps.first().map_or(0, |m| m.len());
+    // Splits in parallel, summed in split order afterwards: the same bytes on any thread count.
+    let per_split: Vec<[f64; 3]> = splits
+        .par_iter()
+        .map(|(pred, target)| {
+            let predictor = sum_of_maps(pred.iter().map(|&s| &subject_maps[s]), n);
+            let target_density = sum_of_maps(target.iter().map(|&s| &subject_maps[s]), n);
+            let target_names: Vec<&String> =
+                target.iter().map(|&s| &fixations.subjects[s]).collect();
+            let target_fix: Vec<usize> = fixations
+                .fixations
+                .iter()
+                .filter(|x| target_names.contains(&&x.subject))
+                .map(|x| x.vertex)
+                .collect();
+            let mut target_pos = vec![false; n];
+            for &v in &target_fix {
+                target_pos[v] = true;
+            }
+            [
+                auc_judd(&predictor, &target_pos, weights),
+                lcc(&predictor, &target_density, weights),
+                nss(&predictor, &target_fix, weights),
+            ]
+        })
+        .collect();
     let (mut auc_sum, mut lcc_sum, mut nss_sum) = (0.0, 0.0, 0.0);
-    for (pred, target) in splits {
-        let predictor = sum_of_maps(pred.iter().map(|&s| &subject_maps[s]), n);
-        let target_density = sum_of_maps(target.iter().map(|&s| &subject_maps[s]), n);
-        let target_names: Vec<&String> = target.iter().map(|&s| &fixations.subjects[s]).collect();
-        let target_fix: Vec<usize> = fixations
-            .fixations
-            .iter()
-            .filter(|x| target_names.contains(&&x.subject))
-            .map(|x| x.vertex)
-            .collect();
-        let mut target_pos = vec![false; n];
-        for &v in &target_fix {
-            target_pos[v] = true;
-        }
-        auc_sum += auc_judd(&predictor, &target_pos, weights);
-        lcc_sum += lcc(&predictor, &target_density, weights);
-        nss_sum += nss(&predictor, &target_fix, weights);
+    for [a, l, m] in per_split {
+        auc_sum += a;
+        lcc_sum += l;
+        nss_sum += m;
     }
     let k = splits.len() as f64;
     [
@@ -453,15 +466,18 @@ pub fn score_mesh(
             params,
             seen,
         };
-        for ((name, _), map) in maps.iter().zip(method_maps) {
-            for (metric, value) in target.metrics_of(map) {
+        // Every map's metrics in parallel (Gini sorts each map): rows keep the maps' order.
+        let mut all_metrics: Vec<Vec<(&'static str, f64)>> = method_maps
+            .par_iter()
+            .chain(chance_blurred.par_iter())
+            .map(|m| target.metrics_of(m))
+            .collect();
+        let chance_metrics = all_metrics.split_off(maps.len());
+        for ((name, _), metrics) in maps.iter().zip(all_metrics) {
+            for (metric, value) in metrics {
                 push(name, metric, value);
             }
         }
-        let chance_metrics: Vec<Vec<(&'static str, f64)>> = chance_blurred
-            .iter()
-            .map(|m| target.metrics_of(m))
-            .collect();
         chance_auc_judd.push((sigma, chance_metrics.iter().map(|m| m[0].1).collect()));
         for (j, (metric, _)) in chance_metrics[0].iter().enumerate() {
             let values: Vec<f64> = chance_metrics.iter().map(|m| m[j].1).collect();

@@ -3,6 +3,7 @@ pub mod auc;
 pub mod dataset;
 pub mod gini;
 pub mod ground_truth;
+pub mod lattice_gauss_transform;
 pub mod map_agreement;
 pub mod mesh_score;
 pub mod surface_blur;
