@@ -8,8 +8,8 @@ use clap::Args;
 use meshgaze::file_bytes::create_output_dir;
 use meshgaze::gaze::fixations::{Detector, EyePolicy, Fate, Fixation};
 use meshgaze::gaze::ingest::{
-    ingest_files, message_kind_counts, stimuli_of, write_ingest, write_samples_rows, IngestParams,
-    IngestedFile, SAMPLES_CSV_HEADER,
+    ingest_files, message_kind_counts, stimuli_of, write_ingest, write_samples_csv, IngestParams,
+    IngestedFile,
 };
 use meshgaze::gaze::stimulus_messages::{classify_messages, message_census, stimulus_segments};
 use meshgaze::gaze::validity::ValidityRule;
@@ -271,10 +271,7 @@ pub fn run(args: IngestArgs) -> Result<()> {
     if args.samples {
         let p = out.join("samples.csv");
         let mut w = create(&p)?;
-        writeln!(w, "{SAMPLES_CSV_HEADER}")?;
-        for f in &files {
-            write_samples_rows(&mut w, &f.subject, &f.recording)?;
-        }
+        write_samples_csv(&mut w, &files)?;
         w.flush()?;
     }
     let all_fix: Vec<&Fixation> = files.iter().flat_map(|f| f.fixations.iter()).collect();

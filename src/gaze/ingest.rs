@@ -701,30 +701,60 @@ pub fn write_ingest_json(
     Ok(j)
 }
 
-/// Writes fixations.csv, messages.csv and quality.csv of `files` into `dir`; returns the
-/// number of fixations.
-pub fn write_ingest_tables(dir: &Path, files: &[IngestedFile]) -> Result<usize, String> {
-    let create = |name: &str| -> Result<(PathBuf, std::io::BufWriter<std::fs::File>), String> {
-        let p = dir.join(name);
-        let f =
-            std::fs::File::create(&p).map_err(|e| format!("cannot create {}: {e}", p.display()))?;
-        Ok((p, std::io::BufWriter::new(f)))
-    };
+/// The three tables `meshgaze ingest` writes, as CSV text: what the files hold and what the
+/// Python package turns into DataFrames, so both read the same bytes.
+pub struct IngestTables {
+    pub fixations: String,
+    pub messages: String,
+    pub quality: String,
+    pub fixation_count: usize,
+}
+
+/// fixations.csv, messages.csv and quality.csv of `files`, in memory.
+pub fn ingest_tables(files: &[IngestedFile]) -> Result<IngestTables, String> {
+    let text = |bytes: Vec<u8>| String::from_utf8(bytes).map_err(|e| e.to_string());
     let rows: Vec<FixationRow> = files
         .iter()
         .flat_map(|f| f.fixations.iter().map(FixationRow::from))
         .collect();
-    let (p, w) = create("fixations.csv")?;
-    write_fixations_csv(w, &rows).map_err(|e| format!("{}: {e}", p.display()))?;
-    let (p, w) = create("messages.csv")?;
-    write_messages_csv(w, files).map_err(|e| format!("{}: {e}", p.display()))?;
-    let (p, mut w) = create("quality.csv")?;
-    let quality: Vec<QualityRow> = files
+    let mut fixations = Vec::new();
+    write_fixations_csv(&mut fixations, &rows)?;
+    let mut messages = Vec::new();
+    write_messages_csv(&mut messages, files)?;
+    let quality_rows: Vec<QualityRow> = files
         .iter()
         .flat_map(|f| f.quality.iter().cloned())
         .collect();
-    write_quality_csv(&mut w, &quality)
-        .and_then(|_| w.flush())
-        .map_err(|e| format!("{}: {e}", p.display()))?;
-    Ok(rows.len())
+    let mut quality = Vec::new();
+    write_quality_csv(&mut quality, &quality_rows).map_err(|e| e.to_string())?;
+    Ok(IngestTables {
+        fixations: text(fixations)?,
+        messages: text(messages)?,
+        quality: text(quality)?,
+        fixation_count: rows.len(),
+    })
+}
+
+/// samples.csv of `files`: the header, then every sample of every file.
+pub fn write_samples_csv(out: &mut impl Write, files: &[IngestedFile]) -> std::io::Result<()> {
+    writeln!(out, "{SAMPLES_CSV_HEADER}")?;
+    for f in files {
+        write_samples_rows(out, &f.subject, &f.recording)?;
+    }
+    Ok(())
+}
+
+/// Writes fixations.csv, messages.csv and quality.csv of `files` into `dir`; returns the
+/// number of fixations.
+pub fn write_ingest_tables(dir: &Path, files: &[IngestedFile]) -> Result<usize, String> {
+    let tables = ingest_tables(files)?;
+    for (name, text) in [
+        ("fixations.csv", &tables.fixations),
+        ("messages.csv", &tables.messages),
+        ("quality.csv", &tables.quality),
+    ] {
+        let p = dir.join(name);
+        std::fs::write(&p, text).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
+    }
+    Ok(tables.fixation_count)
 }

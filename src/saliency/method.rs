@@ -58,6 +58,35 @@ pub const PAPER_METHODS: [Method; 7] = [
 ];
 
 impl Method {
+    /// Every method, paper methods first.
+    pub const ALL: [Method; 10] = [
+        Method::Sms,
+        Method::Mc,
+        Method::Ms,
+        Method::Si,
+        Method::Sri,
+        Method::Mr,
+        Method::Gr,
+        Method::Up,
+        Method::Centre,
+        Method::Gaze,
+    ];
+
+    /// The method of a name as [`Method::name`] gives it (`sms`, `mc`, ...), case-blind.
+    pub fn from_name(name: &str) -> Result<Method, String> {
+        let wanted = name.trim().to_ascii_lowercase();
+        Method::ALL
+            .into_iter()
+            .find(|m| m.name() == wanted)
+            .ok_or_else(|| {
+                let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
+                format!(
+                    "unknown method `{name}`: expected one of {}",
+                    names.join(", ")
+                )
+            })
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Method::Sms => "sms",
@@ -264,4 +293,19 @@ pub fn compute_saliency_viewed(
         report: report.map_err(|e| e.to_string())?,
         seconds: t.elapsed().as_secs_f64(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_method_reads_back_from_its_name_and_an_unknown_name_lists_them() {
+        for m in Method::ALL {
+            assert_eq!(Method::from_name(m.name()), Ok(m));
+            assert_eq!(Method::from_name(&m.name().to_uppercase()), Ok(m));
+        }
+        let e = Method::from_name("curvature").unwrap_err();
+        assert!(e.contains("curvature") && e.contains("sms, mc, ms"), "{e}");
+    }
 }

@@ -331,6 +331,32 @@ fn read_vertex_map(
     })
 }
 
+/// A per-vertex truth map given as values (one per vertex, in mesh order) rather than a
+/// file: the top `top_fraction` of vertices by value are the positives, as for a file
+/// without a flag column. Refuses values that are not finite.
+pub fn vertex_truth_from_values(
+    values: Vec<f64>,
+    top_fraction: f64,
+) -> Result<VertexTruth, String> {
+    if let Some(i) = values.iter().position(|v| !v.is_finite()) {
+        return Err(format!(
+            "truth value {} (vertex {i}) is not finite",
+            values[i]
+        ));
+    }
+    if !(top_fraction > 0.0 && top_fraction <= 1.0) {
+        return Err(format!(
+            "the top fraction taken as fixated must be in (0, 1], not {top_fraction}"
+        ));
+    }
+    let (positive, positive_rule) = positives_of(&values, None, top_fraction);
+    Ok(VertexTruth {
+        values,
+        positive,
+        positive_rule,
+    })
+}
+
 /// The positives of a vertex map: its flags when it has them, else the top fraction by value
 /// (ties to the lower index); with the rule in words.
 fn positives_of(
