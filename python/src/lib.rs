@@ -95,31 +95,13 @@ impl Mesh {
     /// (n, 3) float64 vertex positions.
     #[getter]
     fn vertices<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
-        let flat: Vec<f64> = self
-            .inner
-            .positions
-            .iter()
-            .flat_map(|p| [p.x, p.y, p.z])
-            .collect();
-        let n = self.inner.positions.len();
-        flat.into_pyarray(py)
-            .reshape([n, 3])
-            .expect("n*3 values reshape to (n, 3)")
+        rows_of_three(py, self.inner.positions.iter().map(|p| [p.x, p.y, p.z]))
     }
 
     /// (m, 3) int64 triangles (vertex indices).
     #[getter]
     fn faces<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<i64>> {
-        let flat: Vec<i64> = self
-            .inner
-            .triangles
-            .iter()
-            .flat_map(|t| t.map(i64::from))
-            .collect();
-        let m = self.inner.triangles.len();
-        flat.into_pyarray(py)
-            .reshape([m, 3])
-            .expect("m*3 values reshape to (m, 3)")
+        rows_of_three(py, self.inner.triangles.iter().map(|t| t.map(i64::from)))
     }
 
     /// What the file reader found and left out (JSON text), or None for a mesh from arrays.
@@ -135,6 +117,18 @@ impl Mesh {
             self.inner.triangles.len()
         )
     }
+}
+
+/// An (n, 3) numpy array of n rows.
+fn rows_of_three<'py, T: numpy::Element>(
+    py: Python<'py>,
+    rows: impl ExactSizeIterator<Item = [T; 3]>,
+) -> Bound<'py, PyArray2<T>> {
+    let n = rows.len();
+    let flat: Vec<T> = rows.flatten().collect();
+    flat.into_pyarray(py)
+        .reshape([n, 3])
+        .expect("n*3 values reshape to (n, 3)")
 }
 
 /// read_mesh(path) -> Mesh: OBJ, PLY (ASCII or binary) or OFF, optionally gzipped.
