@@ -2,6 +2,8 @@
 //! meshgaze library, with the GIL released while it computes. The pure-Python half
 //! (python/meshgaze/__init__.py) turns the CSV text and rows returned here into pandas
 //! DataFrames, so Python and the command line read the same bytes.
+mod stages;
+
 use std::path::{Path, PathBuf};
 
 use numpy::{IntoPyArray, PyArray1, PyArray2, PyArrayMethods, PyReadonlyArray1, PyReadonlyArray2};
@@ -11,11 +13,13 @@ use pyo3::types::PyDict;
 
 use glam::DVec3;
 use meshgaze::gaze::ingest::{ingest_files, ingest_tables, write_samples_csv, IngestParams};
+use meshgaze::gaze::recording::GazeFormat;
 use meshgaze::gaze_model::GazeModel;
 use meshgaze::progress::Progress;
 use meshgaze::saliency::{compute_saliency_viewed, Method, RarityParams, SmsParams, Viewing};
 use meshgaze::scoring::surface_blur::BlurKernel;
 use meshgaze::scoring::{score_mesh, ScoreParams, Weighting};
+use meshgaze::stimulus::hold_views::hold_view_exposure;
 use meshgaze::truth::{load_ground_truth, vertex_truth_from_values, GroundTruth};
 use meshgaze::Protocol;
 
@@ -26,14 +30,16 @@ pyo3::create_exception!(
     "An input meshgaze cannot use; the message is the command line's (file, line, column)."
 );
 
-fn fail(e: impl std::fmt::Display) -> PyErr {
+pub(crate) fn fail(e: impl std::fmt::Display) -> PyErr {
     MeshgazeError::new_err(e.to_string())
 }
 
 /// A triangle mesh: vertex positions and triangles, in file order.
 #[pyclass(module = "meshgaze._meshgaze", frozen)]
-struct Mesh {
-    inner: meshgaze::Mesh,
+pub(crate) struct Mesh {
+    pub(crate) inner: meshgaze::Mesh,
+    /// The file it was read from (None for a mesh from arrays): the stimulus manifest hashes it.
+    pub(crate) path: Option<PathBuf>,
     /// What the reader skipped (degenerate faces, unreferenced vertices), as JSON.
     load_report: Option<String>,
 }
@@ -88,6 +94,7 @@ impl Mesh {
                 positions,
                 triangles,
             },
+            path: None,
             load_report: None,
         })
     }
@@ -102,6 +109,12 @@ impl Mesh {
     #[getter]
     fn faces<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<i64>> {
         rows_of_three(py, self.inner.triangles.iter().map(|t| t.map(i64::from)))
+    }
+
+    /// The file the mesh was read from, or None for a mesh from arrays.
+    #[getter]
+    fn path(&self) -> Option<PathBuf> {
+        self.path.clone()
     }
 
     /// What the file reader found and left out (JSON text), or None for a mesh from arrays.
@@ -137,6 +150,7 @@ fn read_mesh(py: Python<'_>, path: PathBuf) -> PyResult<Mesh> {
     let (mesh, report) = py.detach(|| meshgaze::load_mesh(&path)).map_err(fail)?;
     Ok(Mesh {
         inner: mesh,
+        path: Some(path),
         load_report: serde_json::to_string(&report).ok(),
     })
 }
@@ -156,7 +170,7 @@ impl Progress for StderrProgress {
     fn finish(&self) {}
 }
 
-fn progress_of(show: bool) -> &'static dyn Progress {
+pub(crate) fn progress_of(show: bool) -> &'static dyn Progress {
     if show {
         &StderrProgress
     } else {
@@ -233,6 +247,14 @@ fn saliency<'py>(
     if model.is_some() && method != Method::Gaze {
         return Err(PyValueError::new_err("model= is for method=\"gaze\""));
     }
+    if method != Method::Sms {
+        if let Some(key) = params.and_then(|p| p.keys().iter().next()) {
+            return Err(PyTypeError::new_err(format!(
+                "saliency() keyword `{key}` is an SMS parameter; method \"{}\" does not take it",
+                method.name()
+            )));
+        }
+    }
     let sms = sms_params(seed, params)?;
     let mesh = &mesh.inner;
     let values = py
@@ -245,7 +267,7 @@ fn saliency<'py>(
     Ok(values.into_pyarray(py))
 }
 
-fn parse_name<T: serde::de::DeserializeOwned>(what: &str, name: &str) -> PyResult<T> {
+pub(crate) fn parse_name<T: serde::de::DeserializeOwned>(what: &str, name: &str) -> PyResult<T> {
     serde_json::from_value(serde_json::Value::String(name.to_string()))
         .map_err(|e| PyValueError::new_err(format!("{what}: {e}")))
 }
@@ -253,12 +275,13 @@ fn parse_name<T: serde::de::DeserializeOwned>(what: &str, name: &str) -> PyResul
 /// read_gaze(paths, ...) -> dict of CSV texts (fixations, messages, quality, samples) and
 /// per-file notes; meshgaze.read_gaze makes DataFrames of them.
 #[pyfunction]
-#[pyo3(signature = (paths, protocol=None, detector=None, eye="best", validity="auto", subject=None, screen=None, stimulus_pattern=None, stimulus_end_pattern=None, max_dispersion_px=None, min_duration_ms=None, max_velocity_deg_s=None, samples=false))]
+#[pyo3(signature = (paths, protocol=None, format=None, detector=None, eye="best", validity="auto", subject=None, screen=None, stimulus_pattern=None, stimulus_end_pattern=None, max_dispersion_px=None, min_duration_ms=None, max_velocity_deg_s=None, samples=false))]
 #[allow(clippy::too_many_arguments)]
 fn read_gaze<'py>(
     py: Python<'py>,
     paths: Vec<PathBuf>,
     protocol: Option<PathBuf>,
+    format: Option<&str>,
     detector: Option<&str>,
     eye: &str,
     validity: &str,
@@ -281,6 +304,10 @@ fn read_gaze<'py>(
         .as_deref()
         .map(|p| (p, stimulus_end_pattern.as_deref()));
     let mut params = IngestParams::from_protocol(&protocol, pattern).map_err(fail)?;
+    params.format = format
+        .map(GazeFormat::from_short_name)
+        .transpose()
+        .map_err(PyValueError::new_err)?;
     params.detector = detector.map(|d| parse_name("detector", d)).transpose()?;
     params.eye = parse_name("eye", eye)?;
     params.validity = parse_name("validity", validity)?;
@@ -337,7 +364,7 @@ fn read_gaze<'py>(
 /// score(mesh, maps, truth_values | truth_path, ...) -> (rows, summaries JSON): rows are
 /// (method, metric, blur, value) as `meshgaze score` writes them.
 #[pyfunction]
-#[pyo3(signature = (mesh, maps, truth_values=None, truth_path=None, blur=None, seed=1, kernel="euclidean", weighting="vertex", top_fraction=0.05, borji_splits=100, progress=false))]
+#[pyo3(signature = (mesh, maps, truth_values=None, truth_path=None, truth=None, blur=None, seed=1, kernel="euclidean", weighting="vertex", top_fraction=0.05, borji_splits=100, protocol=None, progress=false))]
 #[allow(clippy::too_many_arguments)]
 #[allow(clippy::type_complexity)]
 fn score(
@@ -346,12 +373,14 @@ fn score(
     maps: Vec<(String, PyReadonlyArray1<f64>)>,
     truth_values: Option<PyReadonlyArray1<f64>>,
     truth_path: Option<PathBuf>,
+    truth: Option<PyRef<'_, stages::Truth>>,
     blur: Option<Vec<f64>>,
     seed: u64,
     kernel: &str,
     weighting: &str,
     top_fraction: f64,
     borji_splits: usize,
+    protocol: Option<PathBuf>,
     progress: bool,
 ) -> PyResult<(Vec<(String, String, f64, f64)>, String)> {
     let n = mesh.inner.positions.len();
@@ -366,8 +395,17 @@ fn score(
         }
         named.push((name, values));
     }
-    let truth = match (truth_values, truth_path) {
-        (Some(v), None) => {
+    let truth = match (truth_values, truth_path, truth) {
+        (None, None, Some(t)) => {
+            let truth_n = t.vertex_count();
+            if truth_n != n {
+                return Err(PyValueError::new_err(format!(
+                    "the truth was built on a mesh of {truth_n} vertices; this one has {n}"
+                )));
+            }
+            t.truth.clone()
+        }
+        (Some(v), None, None) => {
             let v = v.as_array().to_vec();
             if v.len() != n {
                 return Err(PyValueError::new_err(format!(
@@ -377,10 +415,10 @@ fn score(
             }
             GroundTruth::VertexMap(vertex_truth_from_values(v, top_fraction).map_err(fail)?)
         }
-        (None, Some(p)) => load_ground_truth(&p, n, top_fraction).map_err(fail)?,
+        (None, Some(p), None) => load_ground_truth(&p, n, top_fraction).map_err(fail)?,
         _ => {
             return Err(PyValueError::new_err(
-                "give the truth as values (one per vertex) or as a file, not both",
+                "give the truth once: as values (one per vertex), as a file or as a Truth",
             ))
         }
     };
@@ -403,8 +441,23 @@ fn score(
         )));
     }
     let mesh = &mesh.inner;
+    // `auc_judd_visible` counts only the vertices the protocol's hold views ever show, as
+    // `meshgaze score` does with its --protocol (the built-in one when unset).
+    let (protocol, _, _) = Protocol::load_or_builtin(protocol.as_deref()).map_err(fail)?;
     let result = py
-        .detach(|| score_mesh(mesh, &truth, &named, &params, None, progress_of(progress)))
+        .detach(|| {
+            let seen = hold_view_exposure(mesh, &protocol)
+                .map_err(|e| e.to_string())?
+                .seen();
+            score_mesh(
+                mesh,
+                &truth,
+                &named,
+                &params,
+                Some(&seen),
+                progress_of(progress),
+            )
+        })
         .map_err(fail)?;
     let rows = result
         .rows
@@ -436,5 +489,10 @@ fn _meshgaze(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(read_gaze, m)?)?;
     m.add_function(wrap_pyfunction!(score, m)?)?;
     m.add_function(wrap_pyfunction!(version, m)?)?;
+    m.add_class::<stages::Truth>()?;
+    m.add_class::<stages::Study>()?;
+    m.add_function(wrap_pyfunction!(stages::render_stimulus, m)?)?;
+    m.add_function(wrap_pyfunction!(stages::project, m)?)?;
+    m.add_function(wrap_pyfunction!(stages::build_truth, m)?)?;
     Ok(())
 }

@@ -3,8 +3,7 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::{Args, Subcommand};
 
-use meshgaze::report::study_report::write_study_report;
-use meshgaze::study::{merge_scores, run_study, template, RunOptions, Study};
+use meshgaze::study::{merge_study, run_study, template, RunOptions, Study};
 
 use super::progress_bar::Bars;
 
@@ -145,14 +144,7 @@ fn run_shard(study: &Path, shard: Option<&str>, jobs: usize, quiet: bool) -> Res
 
 fn merge(study: &Path) -> Result<()> {
     let s = Study::load(study)?;
-    let n = merge_scores(&s)?;
-    // The shards' problems, as each shard's run logged them.
-    let problems: Vec<String> = std::fs::read_to_string(s.output.join("run.log"))
-        .unwrap_or_default()
-        .lines()
-        .filter_map(|l| l.strip_prefix("problem\t").map(str::to_string))
-        .collect();
-    let report = write_study_report(&s.output, &problems)?;
+    let (n, report) = merge_study(&s)?;
     eprintln!(
         "merged the scores of {n} meshes into {}; report: {}",
         s.output.join("scores.csv").display(),

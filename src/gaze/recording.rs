@@ -79,6 +79,59 @@ pub enum GazeFormat {
     PupilCloud,
 }
 
+impl GazeFormat {
+    /// Every format, in the order `ingest --help` lists them.
+    pub const ALL: [GazeFormat; 15] = [
+        GazeFormat::IdfSamples,
+        GazeFormat::BeGazeSamples,
+        GazeFormat::EventTables,
+        GazeFormat::BeGazeRaw,
+        GazeFormat::EventStatistics,
+        GazeFormat::BeGazeFixations,
+        GazeFormat::IviewLegacy,
+        GazeFormat::EyelinkAsc,
+        GazeFormat::TobiiProLab,
+        GazeFormat::TobiiStudio,
+        GazeFormat::TobiiStudioList,
+        GazeFormat::TobiiSdk,
+        GazeFormat::Gazepoint,
+        GazeFormat::PupilCore,
+        GazeFormat::PupilCloud,
+    ];
+
+    /// The name `ingest --format` takes (a test keeps it equal to the command line's).
+    pub fn short_name(self) -> &'static str {
+        match self {
+            GazeFormat::IdfSamples => "a",
+            GazeFormat::BeGazeSamples => "a-begaze",
+            GazeFormat::EventTables => "c1",
+            GazeFormat::BeGazeRaw => "c2",
+            GazeFormat::EventStatistics => "b",
+            GazeFormat::BeGazeFixations => "b-fix",
+            GazeFormat::IviewLegacy => "a2",
+            GazeFormat::EyelinkAsc => "eyelink",
+            GazeFormat::TobiiProLab => "tobii-pro-lab",
+            GazeFormat::TobiiStudio => "tobii-studio",
+            GazeFormat::TobiiStudioList => "tobii-studio-list",
+            GazeFormat::TobiiSdk => "tobii-sdk",
+            GazeFormat::Gazepoint => "gazepoint",
+            GazeFormat::PupilCore => "pupil-core",
+            GazeFormat::PupilCloud => "pupil-cloud",
+        }
+    }
+
+    /// The format of a `--format` name, or an error listing the names.
+    pub fn from_short_name(name: &str) -> Result<GazeFormat, String> {
+        GazeFormat::ALL
+            .into_iter()
+            .find(|f| f.short_name() == name)
+            .ok_or_else(|| {
+                let names: Vec<&str> = GazeFormat::ALL.iter().map(|f| f.short_name()).collect();
+                format!("unknown gaze format `{name}`; one of {}", names.join(", "))
+            })
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
 pub enum Eye {
     Left,
@@ -317,4 +370,34 @@ pub enum GazeError {
     },
     #[error("{path}: {message}")]
     File { path: String, message: String },
+}
+
+#[cfg(test)]
+mod format_name_tests {
+    use super::GazeFormat;
+
+    #[test]
+    fn every_format_has_one_short_name_that_parses_back() {
+        let mut names: Vec<&str> = GazeFormat::ALL.iter().map(|f| f.short_name()).collect();
+        for f in GazeFormat::ALL {
+            assert_eq!(GazeFormat::from_short_name(f.short_name()), Ok(f));
+        }
+        names.sort();
+        names.dedup();
+        assert_eq!(names.len(), GazeFormat::ALL.len());
+        assert!(GazeFormat::from_short_name("smi")
+            .unwrap_err()
+            .contains("eyelink"));
+    }
+
+    #[cfg(feature = "cli")]
+    #[test]
+    fn the_short_names_are_the_command_lines_and_all_lists_every_variant() {
+        use clap::ValueEnum;
+        assert_eq!(GazeFormat::value_variants().len(), GazeFormat::ALL.len());
+        for f in GazeFormat::value_variants() {
+            let clap_name = f.to_possible_value().unwrap().get_name().to_string();
+            assert_eq!(clap_name, f.short_name());
+        }
+    }
 }

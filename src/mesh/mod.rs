@@ -17,12 +17,14 @@ mod read;
 pub mod sampling;
 pub mod simplification;
 mod subdivide;
+mod write_obj;
 mod write_ply;
 
 pub use error::MeshError;
 pub use nearest_vertex_transfer::transfer_by_nearest_vertex;
 pub use read::{load_mesh, parse_mesh_bytes, MeshFormat};
 pub use subdivide::subdivide_midpoint;
+pub use write_obj::write_obj;
 pub use write_ply::{write_ply_with_quality, ColorRamp, ColorScale};
 
 use glam::DVec3;

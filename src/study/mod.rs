@@ -5,4 +5,4 @@ pub mod demo;
 pub mod run;
 
 pub use config::{template, Study, StudyMesh};
-pub use run::{merge_scores, run_study, shard_of, RunOptions, StudyRun};
+pub use run::{merge_scores, merge_study, run_study, shard_of, RunOptions, StudyRun};

@@ -713,6 +713,20 @@ fn score_step(
     Ok(())
 }
 
+/// What `study merge` does after sharded runs: joins the shards' scores and writes the study
+/// report with the problems each shard logged in run.log. Returns the meshes merged and the
+/// report's path.
+pub fn merge_study(study: &Study) -> Result<(usize, PathBuf)> {
+    let merged = merge_scores(study)?;
+    let problems: Vec<String> = std::fs::read_to_string(study.output.join("run.log"))
+        .unwrap_or_default()
+        .lines()
+        .filter_map(|l| l.strip_prefix("problem\t").map(str::to_string))
+        .collect();
+    let report = write_study_report(&study.output, &problems)?;
+    Ok((merged, report))
+}
+
 /// Joins OUT/scores/<mesh>.csv of every mesh present (from any shard) into OUT/scores.csv, in
 /// mesh-name order.
 pub fn merge_scores(study: &Study) -> Result<usize> {
