@@ -31,6 +31,7 @@ enum Command {
     Protocol(cli::protocol::ProtocolArgs),
     Study(cli::study::StudyArgs),
     Train(cli::train::TrainArgs),
+    View(cli::view::ViewArgs),
 }
 
 fn main() -> std::process::ExitCode {
@@ -50,6 +51,7 @@ fn main() -> std::process::ExitCode {
         Command::Protocol(args) => cli::protocol::run(args),
         Command::Study(args) => cli::study::run(args),
         Command::Train(args) => cli::train::run(args),
+        Command::View(args) => cli::view::run(args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

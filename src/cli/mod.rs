@@ -13,3 +13,4 @@ pub mod stimulus;
 pub mod study;
 pub mod train;
 pub mod truth;
+pub mod view;

@@ -9,3 +9,5 @@ pub mod plot;
 pub mod robustness_report;
 pub mod score_plots;
 pub mod study_report;
+pub mod viewer;
+pub mod viewer_files;
