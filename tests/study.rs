@@ -169,6 +169,15 @@ fn a_playlist_study_runs_resumes_shards_and_refuses_a_changed_mesh() {
         let page = String::from_utf8(read(dir.join(format!("study/report/{m}.html")))).unwrap();
         assert!(page.contains("chance there: mean [95%]"), "{m}");
         assert!(page.contains("shown only"), "{m}");
+        // The 3D viewer with the mesh's map, density and the subjects' fixations.
+        assert!(page.contains("<h2>In 3D</h2>"), "{m}");
+        let data_at = page.find("class=\"mgv-data\">").expect("viewer data");
+        let data = &page[data_at..];
+        assert!(
+            data.contains("\"name\":\"mc\"") && data.contains("\"kind\":\"truth\""),
+            "{m}"
+        );
+        assert!(data.contains("\"holds\":[{"), "{m}: the stimulus cameras");
         assert_eq!(
             page.matches("<img alt=").count(),
             2 + 2 * 2,

@@ -394,3 +394,33 @@ fn in_chromium_switching_the_map_changes_the_colours() {
         "mc and height differ on {differ} of {objects} object pixels"
     );
 }
+
+#[test]
+#[cfg_attr(no_chromium, ignore = "needs chromium (MESHGAZE_CHROMIUM or PATH)")]
+fn in_chromium_the_demo_report_opens_offline_with_its_viewer() {
+    let dir = std::env::temp_dir().join(format!("meshgaze-demo-view-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let out = Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+        .args(["demo", "--quiet", "--subjects", "4", "-o"])
+        .arg(&dir)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let report = dir.join("report.html");
+    let html = std::fs::read_to_string(&report).unwrap();
+    assert!(html.contains("<h2>In 3D</h2>") && html.contains("class=\"mgv-data\""));
+    let lower = html.to_lowercase();
+    assert!(!lower.contains("http://") && !lower.contains("https://"));
+    let s = status(&report, "");
+    std::fs::remove_dir_all(&dir).ok();
+    assert_eq!(s["ready"], true, "{s}");
+    assert_eq!(s["drawn"], true, "{s}");
+    assert_eq!(s["errors"], serde_json::json!([]), "{s}");
+    // The demo's first map, with the observers' fixations on the surface.
+    assert_eq!(s["layer"], "sms", "{s}");
+    assert!(s["dots"].as_u64().unwrap() > 20, "{s}");
+}

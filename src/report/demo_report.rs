@@ -8,6 +8,7 @@ use image::{Rgb, RgbImage};
 
 use super::html::{esc, file_data_uri, fmt3, png_data_uri, thumbnail};
 use super::map_render::render_map;
+use super::viewer::{viewer_fragment, ViewerInput, ViewerLimits};
 use crate::projection::ProjectionFate;
 use crate::scoring::MeshScore;
 use crate::stimulus::camera::Phase;
@@ -91,6 +92,7 @@ pub fn write_report(path: &Path, r: &ReportInputs) -> Result<()> {
     html += &fates_section(r)?;
     html += &checks_section(r)?;
     html += &maps_section(r)?;
+    html += &viewer_section(r)?;
     html += &scores_section(r)?;
     html += &provenance_section(r)?;
     std::fs::write(path, html).with_context(|| format!("cannot write {}", path.display()))?;
@@ -286,6 +288,28 @@ fn checks_section(r: &ReportInputs) -> Result<String> {
 }
 
 /// The ground truth and each map painted on the mesh from the first viewpoint and the one most opposite it.
+/// The interactive viewer of the bunny with every map, the truth and the fixations.
+fn viewer_section(r: &ReportInputs) -> Result<String> {
+    let mut html = String::from(
+        "<h2>In 3D</h2><p>Drag to turn the bunny, wheel to zoom; colour it by each map or the \
+         fixation density; the numbered buttons show exactly what the observers saw at each \
+         hold of the video, and the time slider replays it with the fixations of that moment.</p>\n",
+    );
+    html += &viewer_fragment(
+        &ViewerInput {
+            title: "bunny".to_string(),
+            mesh: &r.stim.mesh,
+            maps: r.maps.to_vec(),
+            truth_density: Some((r.truth.density.clone(), r.truth.sidecar.blur)),
+            fixations: r.truth.rows.clone(),
+            stimulus: Some((&r.stim.plan, r.stim.fps)),
+        },
+        &ViewerLimits::default(),
+    )
+    .map_err(anyhow::Error::msg)?;
+    Ok(html)
+}
+
 fn maps_section(r: &ReportInputs) -> Result<String> {
     let mut html = String::new();
     let stim = r.stim;

@@ -8,7 +8,9 @@ use anyhow::{Context, Result};
 use super::html::{esc, fmt3, png_data_uri, thumbnail};
 use super::map_render::render_map;
 use super::score_plots::write_score_plots;
+use super::viewer::{viewer_fragment, ViewerInput, ViewerLimits};
 use crate::file_bytes::create_output_dir;
+use crate::projection::table::ProjectedRow;
 use crate::scoring::MeshScore;
 use crate::stimulus::load::LoadedStimulus;
 
@@ -22,6 +24,8 @@ pub struct MeshPage<'a> {
     pub density: &'a [f64],
     /// truth.json of the mesh, as written by the truth step.
     pub truth_json: &'a serde_json::Value,
+    /// The truth's fixations (truth.csv rows), drawn as dots in the 3D viewer.
+    pub fixations: &'a [ProjectedRow],
     /// (label, path relative to the page) of the files behind the page.
     pub links: &'a [(String, String)],
 }
@@ -38,6 +42,24 @@ pub fn write_mesh_page(dir: &Path, page: &MeshPage) -> Result<PathBuf> {
     )?;
     h += &summary_table(page.score);
     h += &fates_table(page.truth_json);
+    h += "<h2>In 3D</h2><p>Turn the mesh, colour it by each map or the fixation density, see every subject's fixations; the numbered buttons show exactly what the subjects saw at each hold of the video.</p>";
+    let blur = page
+        .truth_json
+        .get("blur")
+        .and_then(|b| b.as_f64())
+        .unwrap_or(f64::NAN);
+    h += &viewer_fragment(
+        &ViewerInput {
+            title: page.name.to_string(),
+            mesh: &page.stim.mesh,
+            maps: page.maps.to_vec(),
+            truth_density: Some((page.density.to_vec(), blur)),
+            fixations: page.fixations.to_vec(),
+            stimulus: Some((&page.stim.plan, page.stim.fps)),
+        },
+        &ViewerLimits::default(),
+    )
+    .map_err(anyhow::Error::msg)?;
     write!(
         h,
         "<h2>AUC-Judd over blur</h2><p>Each map blurred over the surface; the grey band holds 95% of {} seeded random maps blurred the same way; black: one half of the subjects predicting the other.</p><div class=\"grid\"><img alt=\"AUC over blur\" src=\"chart.{1}.auc.png\"><img alt=\"Lorenz curves\" src=\"chart.{1}.lorenz.png\"></div>",

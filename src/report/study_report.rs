@@ -236,7 +236,7 @@ fn mean_section(
 /// One row per mesh, linking to its page.
 fn mesh_table(out: &Path, rows: &[Row], meshes: &[String], methods: &[String]) -> Result<String> {
     let mut h = String::new();
-    h += "<h2>Meshes</h2><p>Kept fixations on the mesh of the protocol's expected number per subject; fates of all fixations; the human ceiling at its peak; each method's AUC-Judd unblurred / at its peak (σ<sub>b</sub>) with the chance band at that blur.</p><table><tr><th>mesh</th><th>subjects</th><th>on mesh / expected</th>";
+    h += "<h2>Meshes</h2><p>Kept fixations on the mesh of the protocol's expected number per subject; fates of all fixations; the human ceiling at its peak; each method's AUC-Judd unblurred / at its peak (σ<sub>b</sub>) with the chance band at that blur. Each mesh's page (follow its name) holds the interactive 3D viewer of its maps, fixation density and fixations, with the cameras the subjects saw; one viewer per page keeps this report small for studies of many meshes.</p><table><tr><th>mesh</th><th>subjects</th><th>on mesh / expected</th>";
     for f in FATES {
         let _ = write!(h, "<th>{f}</th>");
     }

@@ -665,6 +665,8 @@ fn score_step(
             .with_context(|| format!("cannot read {}", truth_json_path.display()))?,
     )
     .with_context(|| format!("{}: not JSON", truth_json_path.display()))?;
+    let fixations =
+        crate::projection::table::read_projected_csv(&truth_csv).map_err(anyhow::Error::msg)?;
     let n = &m.name;
     let mut links = vec![
         (
@@ -704,6 +706,7 @@ fn score_step(
             score: &score,
             density: &density,
             truth_json: &truth_json,
+            fixations: &fixations,
             links: &links,
         },
     )?;
