@@ -290,6 +290,12 @@ fn in_chromium_the_page_loads_without_an_error_with_its_panel() {
     assert_eq!(s["frame"], 0);
     // Every fixation with a surface point is a dot.
     assert_eq!(s["dots"], fixations(&page.mesh).len());
+    // Replay at 4.55 s: the video's frame of that instant, and only the fixation made then
+    // (fixation i runs from 500 + 400 i ms for 250 ms: i = 10).
+    let s = status(&path, "t=4.55");
+    assert_eq!(s["mode"], "frame", "{s}");
+    assert_eq!(s["frame"], 136, "{s}");
+    assert_eq!(s["dots"], 1, "{s}");
     let s = status(&path, "map=nope");
     assert_eq!(s["errors"], serde_json::json!(["no map named nope"]), "{s}");
 }
@@ -311,7 +317,11 @@ fn in_chromium_a_hold_view_draws_the_mesh_where_the_renderer_does() {
     };
     let mut previous: Option<Vec<u32>> = None;
     for view in [0usize, 4, 9] {
-        let hash = format!("view={view}&ui=0&size=video&map=mc&dots=0");
+        // The button itself is clicked (its handler runs), panel shown, then the panel hidden
+        // for the pixel comparison.
+        let s = status(&path, &format!("press={view}&map=mc"));
+        assert_eq!(s["view"], view, "{s}");
+        let hash = format!("press={view}&ui=0&size=video&map=mc&dots=0");
         let s = status(&path, &hash);
         assert_eq!(s["errors"], serde_json::json!([]), "{s}");
         assert_eq!(

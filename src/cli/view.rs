@@ -22,7 +22,8 @@ use meshgaze::report::viewer_files::{view_page_from_files, ViewFiles};
 ///
 /// The page reads options after `#` in its address: `view.html#map=sms&view=2&k=10`
 /// (map by name or index, or `plain`; hold view index; top percent; `t=SECONDS` replays at
-/// that time; `ui=0` hides the panel; `dots=0` hides the fixations).
+/// that time; `press=I` clicks hold-view button I; `ui=0` hides the panel; `dots=0` hides the
+/// fixations; `size=video` draws at the video's exact pixel size).
 ///
 /// Examples:
 ///   meshgaze view bunny.ply --saliency sms.csv mc.csv --truth truth/ --stimulus stim/ -o view.html

@@ -209,6 +209,8 @@
     if (opts.view !== undefined && T) this.holdView(+opts.view);
     if (opts.t !== undefined && T) this.setTime(+opts.t, true);
     if (opts.dots === '0') this.showDots = false;
+    // press=i clicks hold-view button i as a user would (scripted checks of the page).
+    if (opts.press !== undefined && this.viewButtons && this.viewButtons[+opts.press]) this.viewButtons[+opts.press].click();
     this.recolor();
     this.redots();
     this.bindInput(stage);
