@@ -34,7 +34,7 @@ if TYPE_CHECKING:
 
 __all__ = [
     "Mesh", "MeshgazeError", "read_mesh", "saliency", "read_gaze", "Recording", "score",
-    "render_stimulus", "project", "build_truth", "Truth", "Study", "METHODS",
+    "render_stimulus", "project", "build_truth", "Truth", "Study", "view", "METHODS",
 ]
 __version__: str = _meshgaze.version()
 
@@ -252,6 +252,7 @@ def project(stimulus: PathLike, fixations: Any, out_dir: PathLike | None = None,
                                           out_dir=_path_or_none(out_dir), **options)
     table = _read_csv(io.StringIO(text), keep_default_na=False, na_values=[""])
     table.attrs["summary"] = json.loads(summary)
+    table.attrs["csv"] = text
     if out_dir is not None:
         table.attrs["path"] = os.path.join(os.fsdecode(out_dir), "projected.csv")
     return table
@@ -364,3 +365,51 @@ class Study:
 
     def __repr__(self) -> str:
         return repr(self._inner)
+
+
+def view(mesh: MeshLike, out: PathLike, maps: Mapping[str, np.ndarray] | None = None,
+         truth: Truth | np.ndarray | None = None, fixations: Any = None,
+         stimulus: PathLike | None = None, max_triangles: int = 500_000,
+         title: str | None = None) -> str:
+    """Write the interactive 3D viewer of `meshgaze view` to `out` (one offline HTML file) and
+    return its path: the mesh coloured by each of `maps` (name -> per-vertex array) or the
+    truth density, with fixations as dots by subject, and with `stimulus` (the folder
+    render_stimulus wrote for this mesh) buttons showing the video's own hold views.
+
+    truth: a Truth (its density, and its fixations unless `fixations` is given) or a density
+    array. fixations: DataFrames from project(), projected.csv paths, or a Truth.
+    """
+    mesh = _as_mesh(mesh)
+    named = [(str(k), np.ascontiguousarray(v, dtype=np.float64)) for k, v in (maps or {}).items()]
+    density, blur, texts = None, float("nan"), []
+    if isinstance(truth, Truth):
+        density = np.ascontiguousarray(truth.density, dtype=np.float64)
+        blur = float(truth.summary.get("blur", float("nan")))
+        if fixations is None:
+            fixations = truth
+    elif truth is not None:
+        density = np.ascontiguousarray(truth, dtype=np.float64)
+    if fixations is not None:
+        if _is_path(fixations) or isinstance(fixations, Truth) or hasattr(fixations, "attrs"):
+            fixations = [fixations]
+        for f in fixations:
+            if isinstance(f, Truth):
+                texts.append(f._inner.fixations_csv)
+            elif hasattr(f, "attrs") and "csv" in getattr(f, "attrs", {}):
+                texts.append(f.attrs["csv"])
+            elif _is_path(f):
+                p = os.fsdecode(f)
+                if os.path.isdir(p):
+                    p = os.path.join(p, "projected.csv")
+                with open(p, encoding="utf-8-sig") as src:
+                    texts.append(src.read())
+            else:
+                raise TypeError("fixations: expected DataFrames from project(), projected.csv "
+                                f"paths or a Truth, not {type(f).__name__}")
+    page = _meshgaze.view_html(mesh, named, density=density, blur=blur, fixations_csv=texts,
+                               stimulus=_path_or_none(stimulus), max_triangles=max_triangles,
+                               title=title)
+    path = os.fsdecode(out)
+    with open(path, "w", encoding="utf-8") as dst:
+        dst.write(page)
+    return path

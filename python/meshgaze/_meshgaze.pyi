@@ -94,4 +94,9 @@ def build_truth(stimulus: str, projected: Sequence[str], out_dir: str | None = N
                 kernel: str = "euclidean", mesh: str | None = None, progress: bool = False
                 ) -> Truth: ...
 
+def view_html(mesh: Mesh, maps: Sequence[tuple[str, np.ndarray]],
+              density: np.ndarray | None = None, blur: float = ...,
+              fixations_csv: Sequence[str] = ..., stimulus: str | None = None,
+              max_triangles: int = 500000, title: str | None = None) -> str: ...
+
 def version() -> str: ...

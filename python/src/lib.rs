@@ -494,5 +494,6 @@ fn _meshgaze(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(stages::render_stimulus, m)?)?;
     m.add_function(wrap_pyfunction!(stages::project, m)?)?;
     m.add_function(wrap_pyfunction!(stages::build_truth, m)?)?;
+    m.add_function(wrap_pyfunction!(stages::view_html, m)?)?;
     Ok(())
 }

@@ -362,3 +362,81 @@ impl Study {
         )
     }
 }
+
+/// view_html(mesh, maps, density=None, blur=nan, fixations_csv=[], stimulus=None,
+/// max_triangles=500000) -> the `meshgaze view` page: maps as (name, values), the truth
+/// density per vertex, fixations as projected.csv texts, the stimulus folder for its cameras.
+#[pyfunction]
+#[pyo3(signature = (mesh, maps, density=None, blur=f64::NAN, fixations_csv=Vec::new(), stimulus=None, max_triangles=500_000, title=None))]
+#[allow(clippy::too_many_arguments)]
+pub fn view_html(
+    py: Python<'_>,
+    mesh: &Mesh,
+    maps: Vec<(String, numpy::PyReadonlyArray1<f64>)>,
+    density: Option<numpy::PyReadonlyArray1<f64>>,
+    blur: f64,
+    fixations_csv: Vec<String>,
+    stimulus: Option<PathBuf>,
+    max_triangles: usize,
+    title: Option<String>,
+) -> PyResult<String> {
+    let maps: Vec<(String, Vec<f64>)> = maps
+        .into_iter()
+        .map(|(n, v)| (n, v.as_array().to_vec()))
+        .collect();
+    let density = density.map(|d| d.as_array().to_vec());
+    let title = title.unwrap_or_else(|| {
+        mesh.path
+            .as_ref()
+            .and_then(|p| p.file_name())
+            .map(|n| {
+                n.to_string_lossy()
+                    .split('.')
+                    .next()
+                    .unwrap_or("")
+                    .to_string()
+            })
+            .unwrap_or_else(|| "mesh".to_string())
+    });
+    py.detach(|| {
+        let mut fixations = Vec::new();
+        for (i, text) in fixations_csv.iter().enumerate() {
+            fixations.extend(
+                meshgaze::projection::table::parse_projected_csv(
+                    text.as_bytes(),
+                    &format!("fixation table {}", i + 1),
+                )?,
+            );
+        }
+        let stim = stimulus
+            .as_ref()
+            .map(|s| load_stimulus(s, None).map_err(|e| e.to_string()))
+            .transpose()?;
+        if let Some(s) = &stim {
+            if s.mesh.positions != mesh.inner.positions || s.mesh.triangles != mesh.inner.triangles
+            {
+                return Err(format!(
+                    "the stimulus {} was rendered from another mesh ({} vertices) than this one ({})",
+                    s.manifest_path.display(),
+                    s.mesh.positions.len(),
+                    mesh.inner.positions.len()
+                ));
+            }
+        }
+        let input = meshgaze::report::viewer::ViewerInput {
+            title,
+            mesh: &mesh.inner,
+            maps,
+            truth_density: density.map(|d| (d, blur)),
+            fixations,
+            stimulus: stim.as_ref().map(|s| (&s.plan, s.fps)),
+        };
+        meshgaze::report::viewer::viewer_page(
+            &input,
+            &meshgaze::report::viewer::ViewerLimits {
+                max_triangles: max_triangles.max(1000),
+            },
+        )
+    })
+    .map_err(fail)
+}

@@ -206,3 +206,24 @@ def test_a_study_from_python_writes_the_clis_scores(cli, bunny_dir, tmp_path):
         (tmp_path / "cli" / "study" / "scores.csv").read_bytes()
     again = meshgaze.Study(ours).run()
     assert {s["outcome"] for s in again["steps"]} <= {"up-to-date", "skipped"}
+
+
+def test_view_writes_the_clis_page(cli, pipeline):
+    d = pipeline["dir"]
+    mesh = meshgaze.read_mesh(pipeline["mesh"])
+    mc = meshgaze.saliency(mesh, "mc")
+    cli("saliency", pipeline["mesh"], "--method", "mc", "-o", d / "view_mc", "--quiet")
+    cli("view", pipeline["mesh"], "--saliency", f"mc={d / 'view_mc.csv'}", "--truth",
+        d / "cli_truth", "--stimulus", d / "cli_stim", "-o", d / "cli_view.html", "--quiet")
+    path = meshgaze.view(mesh, d / "py_view.html", maps={"mc": mc}, truth=pipeline["truth"],
+                         stimulus=d / "cli_stim")
+    ours = open(path, "rb").read()
+    assert ours == (d / "cli_view.html").read_bytes()
+    text = ours.decode()
+    assert "http://" not in text and "https://" not in text
+    # A projection DataFrame gives its fixations too, and a mesh that is not the stimulus's
+    # is refused.
+    meshgaze.view(mesh, d / "py_view2.html", fixations=pipeline["projected"], stimulus=d / "cli_stim")
+    with pytest.raises(meshgaze.MeshgazeError, match="another mesh"):
+        small = meshgaze.Mesh(mesh.vertices[:3], np.array([[0, 1, 2]]))
+        meshgaze.view(small, d / "bad.html", stimulus=d / "cli_stim")
