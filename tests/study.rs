@@ -164,6 +164,29 @@ fn a_playlist_study_runs_resumes_shards_and_refuses_a_changed_mesh() {
     // The report: every mesh linked to its own page, the mean curve with the chance band,
     // data quality for each of the 8 subjects; study.json hashes every mesh and recording.
     let report = String::from_utf8(read(dir.join("study/report.html"))).unwrap();
+    // Every step's seconds: run.log's fourth column, study.json's `seconds`, the report's
+    // account of where the time went. Steps that did work took measurable time.
+    let log = String::from_utf8(read(dir.join("study/run.log"))).unwrap();
+    let mut worked = 0.0;
+    for l in log.lines().filter(|l| !l.starts_with("problem\t")) {
+        let f: Vec<&str> = l.split('\t').collect();
+        let seconds: f64 = f[3]
+            .parse()
+            .unwrap_or_else(|_| panic!("no seconds in `{l}`"));
+        assert!(seconds >= 0.0, "{l}");
+        if f[2] == "done" && f[1].starts_with("saliency") {
+            worked += seconds;
+        }
+    }
+    assert!(worked > 0.0, "the saliency steps took no time?\n{log}");
+    let json: serde_json::Value =
+        serde_json::from_slice(&read(dir.join("study/study.json"))).unwrap();
+    assert!(json["run"]["steps"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .all(|s| s["seconds"].as_f64().is_some()));
+    assert!(report.contains("Where the time went"));
     for m in ["apple", "bunny", "cow"] {
         assert!(report.contains(&format!("href=\"report/{m}.html\"")), "{m}");
         let page = String::from_utf8(read(dir.join(format!("study/report/{m}.html")))).unwrap();
@@ -195,7 +218,10 @@ fn a_playlist_study_runs_resumes_shards_and_refuses_a_changed_mesh() {
     let quality = report
         .split("Data quality per subject")
         .nth(1)
-        .expect("quality table");
+        .expect("quality table")
+        .split("Where the time went")
+        .next()
+        .unwrap();
     assert_eq!(quality.matches("<tr><td>").count(), 8, "{quality}");
     let study_json: serde_json::Value =
         serde_json::from_slice(&read(dir.join("study/study.json"))).unwrap();
@@ -250,7 +276,12 @@ fn a_playlist_study_runs_resumes_shards_and_refuses_a_changed_mesh() {
     meshgaze(&dir, &["study", "merge", "sharded.toml"]);
     assert_eq!(read(dir.join("sharded/scores.csv")), scores);
     let merged_report = String::from_utf8(read(dir.join("sharded/report.html"))).unwrap();
-    let tables = |r: &str| r.split("<h2>Mean AUC-Judd").nth(1).unwrap().to_string();
+    // Everything but the account of the last run's seconds, the one part that differs by run.
+    let tables = |r: &str| {
+        let t = r.split("<h2>Mean AUC-Judd").nth(1).unwrap();
+        let (before, after) = t.split_once("<h2>Where the time went").unwrap();
+        before.to_string() + after.split_once("<h2>Files").unwrap().1
+    };
     assert_eq!(tables(&merged_report), tables(&report));
     for m in ["apple", "bunny", "cow"] {
         assert_eq!(

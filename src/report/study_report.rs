@@ -322,6 +322,64 @@ fn quality_table(quality_csv: &Path) -> Result<String> {
     Ok(h)
 }
 
+/// Where the last run's time went, from study.json's steps (wall-clock seconds per step):
+/// totals per kind of step, and the meshes that took longest.
+fn time_section(study_json: &Path) -> String {
+    let Some(steps) = std::fs::read(study_json)
+        .ok()
+        .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+        .and_then(|v| v["run"]["steps"].as_array().cloned())
+    else {
+        return String::new();
+    };
+    let mut by_step: BTreeMap<String, (f64, usize, usize)> = BTreeMap::new();
+    let mut by_mesh: BTreeMap<String, f64> = BTreeMap::new();
+    for s in &steps {
+        let (Some(step), Some(mesh)) = (s["step"].as_str(), s["mesh"].as_str()) else {
+            continue;
+        };
+        let seconds = s["seconds"].as_f64().unwrap_or(0.0);
+        let e = by_step.entry(step.to_string()).or_insert((0.0, 0, 0));
+        e.0 += seconds;
+        if s["outcome"] == "done" {
+            e.1 += 1;
+        } else {
+            e.2 += 1;
+        }
+        if step != "ingest" {
+            *by_mesh.entry(mesh.to_string()).or_insert(0.0) += seconds;
+        }
+    }
+    let total: f64 = by_step.values().map(|v| v.0).sum();
+    let mut h = String::from(
+        "<h2>Where the time went</h2><p>Wall-clock seconds of the last run's steps (study.json, run.log), summed over meshes; with <code>--jobs</code> meshes run side by side, so the sum can exceed the run's length. Up-to-date steps cost only their check.</p><table><tr><th>step</th><th>seconds</th><th>share</th><th>done</th><th>up to date / skipped / failed</th></tr>",
+    );
+    let mut rows: Vec<(&String, &(f64, usize, usize))> = by_step.iter().collect();
+    rows.sort_by(|a, b| b.1 .0.total_cmp(&a.1 .0));
+    for (step, (seconds, done, other)) in rows {
+        let _ = write!(
+            h,
+            "<tr><td>{}</td><td>{seconds:.1}</td><td>{:.0}%</td><td>{done}</td><td>{other}</td></tr>",
+            esc(step),
+            if total > 0.0 { 100.0 * seconds / total } else { 0.0 }
+        );
+    }
+    h += "</table>";
+    let mut meshes: Vec<(&String, &f64)> = by_mesh.iter().collect();
+    meshes.sort_by(|a, b| b.1.total_cmp(a.1));
+    if !meshes.is_empty() {
+        h += "<p>Slowest meshes (every step but the shared ingest): ";
+        let list: Vec<String> = meshes
+            .iter()
+            .take(5)
+            .map(|(m, s)| format!("{} {s:.1} s", esc(m)))
+            .collect();
+        h += &list.join(", ");
+        h += ".</p>";
+    }
+    h
+}
+
 /// Builds OUT/report.html (and OUT/report/mean_auc.png) from OUT/scores.csv, OUT/scores/chance/,
 /// OUT/truth/*/truth.json and OUT/ingest/quality.csv. `problems` are listed at the top.
 pub fn write_study_report(out: &Path, problems: &[String]) -> Result<PathBuf> {
@@ -363,6 +421,7 @@ pub fn write_study_report(out: &Path, problems: &[String]) -> Result<PathBuf> {
     if quality_csv.exists() {
         h += &quality_table(&quality_csv)?;
     }
+    h += &time_section(&out.join("study.json"));
     h += "<h2>Files</h2><ul><li><a href=\"scores.csv\">scores.csv</a> (mesh, method, metric, blur, value)</li><li><a href=\"study.json\">study.json</a></li><li><a href=\"run.log\">run.log</a></li><li><a href=\"ingest/fixations.csv\">ingest/fixations.csv</a>, <a href=\"ingest/quality.csv\">ingest/quality.csv</a></li></ul></body></html>\n";
     let path = out.join("report.html");
     std::fs::write(&path, h).with_context(|| format!("cannot write {}", path.display()))?;

@@ -5,6 +5,7 @@
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 use anyhow::{Context, Result};
 use rayon::prelude::*;
@@ -47,6 +48,24 @@ pub struct StepLog {
     /// `done`, `up-to-date`, `skipped` or `failed`.
     pub outcome: &'static str,
     pub detail: String,
+    /// Wall-clock seconds the step took (the ingest of every recording for `ingest`).
+    pub seconds: f64,
+}
+
+/// A mesh job's log in the making: each step pushed gets the seconds since the previous one
+/// (the steps of one mesh run one after another, so the gaps are the steps' own times).
+struct StepClock<'a> {
+    logs: &'a mut Vec<StepLog>,
+    last: Instant,
+}
+
+impl StepClock<'_> {
+    fn push(&mut self, mut step: StepLog) {
+        let now = Instant::now();
+        step.seconds = (now - self.last).as_secs_f64();
+        self.last = now;
+        self.logs.push(step);
+    }
 }
 
 /// The run's account, as study.json and the log show it.
@@ -133,7 +152,9 @@ pub fn run_study(study: &Study, options: &RunOptions, progress: &dyn Progress) -
         );
         return finish(study, steps, problems, &meshes, 0);
     }
-    let (ingest_log, ingest_problems) = ingest_all(study, &protocol_hash)?;
+    let t_ingest = Instant::now();
+    let (mut ingest_log, ingest_problems) = ingest_all(study, &protocol_hash)?;
+    ingest_log.seconds = t_ingest.elapsed().as_secs_f64();
     steps.push(ingest_log);
     problems.extend(ingest_problems);
     let fixations_csv = out.join("ingest").join("fixations.csv");
@@ -210,7 +231,12 @@ fn finish(
     let mut w =
         std::fs::File::create(&log).with_context(|| format!("cannot create {}", log.display()))?;
     for s in &run.steps {
-        writeln!(w, "{}\t{}\t{}\t{}", s.mesh, s.step, s.outcome, s.detail)?;
+        // Seconds before the detail, which may be long free text.
+        writeln!(
+            w,
+            "{}\t{}\t{}\t{:.3}\t{}",
+            s.mesh, s.step, s.outcome, s.seconds, s.detail
+        )?;
     }
     for p in &run.problems {
         writeln!(w, "problem\t{p}")?;
@@ -265,10 +291,12 @@ fn log(mesh: &str, step: &str, outcome: &'static str, detail: impl Into<String>)
         step: step.to_string(),
         outcome,
         detail: detail.into(),
+        seconds: 0.0,
     }
 }
 
 fn ensure_stimulus(study: &Study, m: &StudyMesh, protocol_hash: &str) -> StepLog {
+    let t0 = Instant::now();
     let dir = study.output.join("stimuli").join(&m.name);
     let attempt = || -> Result<&'static str> {
         let key = key_of(&["stimulus", &hash_file(&m.path)?, protocol_hash]);
@@ -302,10 +330,12 @@ fn ensure_stimulus(study: &Study, m: &StudyMesh, protocol_hash: &str) -> StepLog
         stamp(&dir, &key)?;
         Ok("done")
     };
-    match attempt() {
+    let mut step = match attempt() {
         Ok(o) => log(&m.name, "stimulus", o, format!("{}", dir.display())),
         Err(e) => log(&m.name, "stimulus", "failed", format!("{e:#}")),
-    }
+    };
+    step.seconds = t0.elapsed().as_secs_f64();
+    step
 }
 
 fn ingest_params(study: &Study) -> Result<IngestParams> {
@@ -404,11 +434,15 @@ fn mesh_job(
     stimuli_seen: &[String],
     stimulus_failed: bool,
 ) -> (Vec<StepLog>, Vec<String>) {
-    let mut logs = Vec::new();
+    let mut log_lines = Vec::new();
+    let mut logs = StepClock {
+        logs: &mut log_lines,
+        last: Instant::now(),
+    };
     let mut problems = Vec::new();
     if stimulus_failed {
         logs.push(log(&m.name, "project", "skipped", "its stimulus failed"));
-        return (logs, problems);
+        return (log_lines, problems);
     }
     let shown: Vec<&String> = stimuli_seen
         .iter()
@@ -426,7 +460,7 @@ fn mesh_job(
                 "skipped",
                 "no recording shows this mesh",
             ));
-            return (logs, problems);
+            return (log_lines, problems);
         }
         [one] => (*one).clone(),
         several => {
@@ -447,7 +481,7 @@ fn mesh_job(
         logs.push(log(&m.name, "mesh", "failed", format!("{e:#}")));
         problems.push(format!("mesh `{}`: {e:#}", m.name));
     }
-    (logs, problems)
+    (log_lines, problems)
 }
 
 fn mesh_steps(
@@ -455,7 +489,7 @@ fn mesh_steps(
     m: &StudyMesh,
     fixations_csv: &Path,
     name: &str,
-    logs: &mut Vec<StepLog>,
+    logs: &mut StepClock,
 ) -> Result<()> {
     let stim = load_unchanged_stimulus(study, m)?;
     let projected = project_step(study, m, &stim, fixations_csv, name, logs)?;
@@ -494,7 +528,7 @@ fn project_step(
     stim: &LoadedStimulus,
     fixations_csv: &Path,
     name: &str,
-    logs: &mut Vec<StepLog>,
+    logs: &mut StepClock,
 ) -> Result<PathBuf> {
     let proj_dir = study.output.join("projection").join(&m.name);
     let key = key_of(&[
@@ -530,7 +564,7 @@ fn truth_step(
     m: &StudyMesh,
     stim: &LoadedStimulus,
     projected: &Path,
-    logs: &mut Vec<StepLog>,
+    logs: &mut StepClock,
 ) -> Result<PathBuf> {
     let truth_dir = study.output.join("truth").join(&m.name);
     let key = key_of(&["truth", &stim.manifest_sha256, &hash_file(projected)?]);
@@ -556,7 +590,7 @@ fn saliency_step(
     study: &Study,
     m: &StudyMesh,
     stim: &LoadedStimulus,
-    logs: &mut Vec<StepLog>,
+    logs: &mut StepClock,
 ) -> Result<Vec<(String, Vec<f64>)>> {
     let mut maps = Vec::new();
     for &method in &study.methods {
@@ -612,7 +646,7 @@ fn score_step(
     stim: &LoadedStimulus,
     truth_dir: &Path,
     maps: &[(String, Vec<f64>)],
-    logs: &mut Vec<StepLog>,
+    logs: &mut StepClock,
 ) -> Result<()> {
     let out = &study.output;
     let score_dir = out.join("scores");
