@@ -5,8 +5,8 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 
 use meshgaze::experiments::timing::{
-    eyelink_parse_speed, paper_case, run_case, run_cell_in_child, smi_parse_speed, stimulus_cell,
-    table_parse_speeds, CaseResult, StimulusCell, COMPETITORS, PAPER_CASES,
+    eyelink_parse_speed, paper_case, run_case, run_cell_in_child, scoring_cell, smi_parse_speed,
+    stimulus_cell, table_parse_speeds, CaseResult, StimulusCell, COMPETITORS, PAPER_CASES,
 };
 use meshgaze::saliency::Method;
 
@@ -49,6 +49,10 @@ pub struct BenchArgs {
     /// Only the recording readers' parse speed (SMI format A, EyeLink ASC), a few seconds.
     #[arg(long, conflicts_with_all = ["case", "method", "csv"])]
     pub parse_only: bool,
+    /// Only the scoring row: the 50k armadillo's seven maps scored against an 8-subject,
+    /// 120-fixation truth as a study scores them (about half a minute with the maps).
+    #[arg(long, conflicts_with_all = ["case", "method", "csv", "parse_only"])]
+    pub scoring_only: bool,
 }
 
 /// The data folder: --data, else the first default place holding meshes/classic; the error
@@ -90,6 +94,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.parse_only {
         return print_smi_parse(&data);
     }
+    if args.scoring_only {
+        return print_scoring(&data).map(|_| ());
+    }
     check_cell(&args)?;
     let exe = std::env::current_exe().context("cannot find the meshgaze executable")?;
     let rows = measure_cases(&args, &exe, &data)?;
@@ -108,8 +115,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
     // One cell asked for: nothing else.
     if args.case.is_none() && args.method.is_none() {
         print_smi_parse(&data)?;
+        let scoring = print_scoring(&data)?;
         if !args.skip_stimulus {
-            print_stimulus(&exe, &data)?;
+            let stimulus_s = print_stimulus(&exe, &data)?;
+            print_study_estimate(scoring, stimulus_s);
         }
     }
     println!(
@@ -303,7 +312,7 @@ fn cases_csv(rows: &[CaseResult]) -> String {
 
 /// The stimulus cell in a process of its own (so its peak memory is the stimulus's alone,
 /// not the SMI parse's before it), printed as a table.
-fn print_stimulus(exe: &Path, data: &Path) -> Result<()> {
+fn print_stimulus(exe: &Path, data: &Path) -> Result<f64> {
     eprintln!("bench: stimulus ...");
     let cell_args = [
         OsStr::new("bench"),
@@ -331,7 +340,31 @@ fn print_stimulus(exe: &Path, data: &Path) -> Result<()> {
         m.total_s,
         m.peak_rss_mb
     );
-    Ok(())
+    Ok(m.total_s)
+}
+
+/// The scoring row; returns the seconds of the seven maps and of scoring them.
+fn print_scoring(data: &Path) -> Result<(f64, f64)> {
+    eprintln!("bench: scoring ...");
+    let c = scoring_cell(data)?;
+    println!(
+        "\nScoring the 50k armadillo ({} vertices) as a study does: {} maps (computed in {:.1} s, not counted), {} fixations of {} subjects, {} blur scales, {} chance draws, split-half human ceiling: {:.1} s",
+        c.vertices, c.maps, c.maps_s, c.fixations, c.subjects, c.blur_scales, c.chance_draws, c.score_s
+    );
+    Ok((c.maps_s, c.score_s))
+}
+
+/// A 50-mesh study of 50k-vertex meshes on this machine, from the rows above: per mesh its
+/// stimulus, seven maps and scoring (projection and truth take well under a second each),
+/// each step already spreads over every core, so the per-mesh sum is the study's wall time
+/// whatever --jobs splits it into.
+fn print_study_estimate((maps_s, score_s): (f64, f64), stimulus_s: f64) {
+    let per_mesh = stimulus_s + maps_s + score_s;
+    println!(
+        "\nA 50-mesh study of 50k-vertex meshes, estimated from these rows: 50 x ({stimulus_s:.1} s stimulus + {maps_s:.1} s seven maps + {score_s:.1} s scoring) = {:.0} s ({:.1} min) of wall time here (each step already uses every core)",
+        50.0 * per_mesh,
+        50.0 * per_mesh / 60.0
+    );
 }
 
 /// The readers' parse speed, per sample, at the same scale (about 1.1 million samples each).

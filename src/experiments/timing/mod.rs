@@ -4,11 +4,13 @@
 //! plain data; [`run_cell_in_child`] runs one in a process of its own so its peak memory is
 //! its own.
 mod memory;
+mod scoring_cell;
 mod smi_parse;
 mod stimulus_cell;
 mod table3;
 
 pub use memory::peak_rss_mb;
+pub use scoring_cell::{scoring_cell, ScoringCell};
 pub use smi_parse::{eyelink_parse_speed, smi_parse_speed, table_parse_speeds, ParseSpeed};
 pub use stimulus_cell::{stimulus_cell, StimulusCell};
 pub use table3::{
