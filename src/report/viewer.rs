@@ -213,12 +213,13 @@ fn data_json(input: &ViewerInput, limits: &ViewerLimits) -> Result<String, Strin
         layers.push(layer(name, "map", values, keep));
     }
     if let Some((density, blur)) = &input.truth_density {
-        layers.push(layer(
-            &format!("truth density (σ_b {blur})"),
-            "truth",
-            density,
-            keep,
-        ));
+        // A density file without its truth.json does not say its blur.
+        let name = if blur.is_finite() {
+            format!("truth density (σ_b {blur})")
+        } else {
+            "truth density".to_string()
+        };
+        layers.push(layer(&name, "truth", density, keep));
     }
     let mut subjects: Vec<String> = input.fixations.iter().map(|r| r.subject.clone()).collect();
     subjects.sort();
