@@ -221,3 +221,67 @@ proptest! {
         let _ = load_ground_truth(&p, 3, 0.5);
     }
 }
+
+/// A per-face truth map (one value per triangle, as published 3D gaze datasets give them) is
+/// told by its row count and scores exactly as the per-vertex map it is carried to
+/// (area-weighted mean of each vertex's faces); named per vertex, it is refused.
+#[test]
+fn score_reads_a_per_face_truth_as_its_area_weighted_vertex_map() {
+    use meshgaze::truth::face_values_to_vertices;
+    let mesh = common::bunny_res3();
+    let mesh_path = common::repo_root().join("stimuli/meshes/bun_zipper_res3.ply");
+    // A smooth per-face value: the height of each face's centroid.
+    let faces: Vec<f64> = mesh
+        .triangles
+        .iter()
+        .map(|t| t.iter().map(|&v| mesh.positions[v as usize].y).sum::<f64>() / 3.0)
+        .collect();
+    let carried = face_values_to_vertices(&mesh, &faces);
+    let face_csv = write(
+        "per_face.csv",
+        &(String::from("face,value\n")
+            + &faces
+                .iter()
+                .enumerate()
+                .map(|(i, v)| format!("{i},{v}\n"))
+                .collect::<String>()),
+    );
+    let vertex_csv = write(
+        "carried.csv",
+        &(String::from("vertex,value\n")
+            + &carried
+                .iter()
+                .enumerate()
+                .map(|(i, v)| format!("{i},{v}\n"))
+                .collect::<String>()),
+    );
+    let score = |truth: &Path, out: &str, layout: &str| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+            .args(["score", "--quiet", "--method", "mc", "--borji-splits", "5"])
+            .arg("--mesh")
+            .arg(&mesh_path)
+            .arg("--truth")
+            .arg(truth)
+            .args(["--truth-layout", layout, "-o"])
+            .arg(std::env::temp_dir().join(format!("meshgaze-face-{}-{out}", std::process::id())))
+            .output()
+            .unwrap()
+    };
+    let a = score(&face_csv, "face", "auto");
+    assert!(a.status.success(), "{}", String::from_utf8_lossy(&a.stderr));
+    let b = score(&vertex_csv, "vertex", "auto");
+    assert!(b.status.success(), "{}", String::from_utf8_lossy(&b.stderr));
+    let rows = |out: &str| {
+        std::fs::read_to_string(
+            std::env::temp_dir().join(format!("meshgaze-face-{}-{out}.csv", std::process::id())),
+        )
+        .unwrap()
+    };
+    assert_eq!(rows("face"), rows("vertex"));
+    assert!(rows("face").contains(",mc,auc_judd,0,"));
+    let refused = score(&face_csv, "refused", "vertex");
+    assert!(!refused.status.success());
+    let e = String::from_utf8_lossy(&refused.stderr);
+    assert!(e.contains("per_face.csv") && e.contains("1889"), "{e}");
+    let _ = load_ground_truth(&face_csv, mesh.triangles.len(), 0.05).unwrap();
+}

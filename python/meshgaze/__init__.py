@@ -165,7 +165,8 @@ def score(mesh: MeshLike, saliency: np.ndarray | Mapping[str, np.ndarray],
     (auc_judd, auc_borji, lcc, nss, sim, kl, gini, auc_judd_visible).
     Options: seed, kernel (euclidean, gaussian, heat), weighting (vertex, area), top_fraction,
     borji_splits, protocol (its hold views decide auc_judd_visible; default the built-in
-    one), progress.
+    one), truth_layout for a truth file (auto, vertex, face: a per-face map is carried to
+    vertices by the area-weighted mean of each vertex's faces), progress.
 
     Returns a DataFrame with columns method, metric, blur, value; the rows include the chance
     band (chance, chance_p2.5, chance_p97.5) and, for a fixation truth with several subjects,

@@ -75,7 +75,8 @@ def score(mesh: Mesh, maps: Sequence[tuple[str, np.ndarray]],
           truth_values: np.ndarray | None = None, truth_path: str | None = None,
           truth: Truth | None = None, blur: Sequence[float] | None = None, seed: int = 1,
           kernel: str = "euclidean", weighting: str = "vertex", top_fraction: float = 0.05,
-          borji_splits: int = 100, protocol: str | None = None, progress: bool = False
+          borji_splits: int = 100, protocol: str | None = None, truth_layout: str = "auto",
+          progress: bool = False
           ) -> tuple[list[tuple[str, str, float, float]], str]: ...
 
 def render_stimulus(mesh: Mesh, out_dir: str, protocol: str | None = None,

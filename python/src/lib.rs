@@ -20,7 +20,7 @@ use meshgaze::saliency::{compute_saliency_viewed, Method, RarityParams, SmsParam
 use meshgaze::scoring::surface_blur::BlurKernel;
 use meshgaze::scoring::{score_mesh, ScoreParams, Weighting};
 use meshgaze::stimulus::hold_views::hold_view_exposure;
-use meshgaze::truth::{load_ground_truth, vertex_truth_from_values, GroundTruth};
+use meshgaze::truth::{load_ground_truth_on, vertex_truth_from_values, GroundTruth, TruthLayout};
 use meshgaze::Protocol;
 
 pyo3::create_exception!(
@@ -364,7 +364,7 @@ fn read_gaze<'py>(
 /// score(mesh, maps, truth_values | truth_path, ...) -> (rows, summaries JSON): rows are
 /// (method, metric, blur, value) as `meshgaze score` writes them.
 #[pyfunction]
-#[pyo3(signature = (mesh, maps, truth_values=None, truth_path=None, truth=None, blur=None, seed=1, kernel="euclidean", weighting="vertex", top_fraction=0.05, borji_splits=100, protocol=None, progress=false))]
+#[pyo3(signature = (mesh, maps, truth_values=None, truth_path=None, truth=None, blur=None, seed=1, kernel="euclidean", weighting="vertex", top_fraction=0.05, borji_splits=100, protocol=None, truth_layout="auto", progress=false))]
 #[allow(clippy::too_many_arguments)]
 #[allow(clippy::type_complexity)]
 fn score(
@@ -381,8 +381,10 @@ fn score(
     top_fraction: f64,
     borji_splits: usize,
     protocol: Option<PathBuf>,
+    truth_layout: &str,
     progress: bool,
 ) -> PyResult<(Vec<(String, String, f64, f64)>, String)> {
+    let layout = parse_name::<TruthLayout>("truth_layout", truth_layout)?;
     let n = mesh.inner.positions.len();
     let mut named = Vec::with_capacity(maps.len());
     for (name, values) in maps {
@@ -415,7 +417,9 @@ fn score(
             }
             GroundTruth::VertexMap(vertex_truth_from_values(v, top_fraction).map_err(fail)?)
         }
-        (None, Some(p), None) => load_ground_truth(&p, n, top_fraction).map_err(fail)?,
+        (None, Some(p), None) => {
+            load_ground_truth_on(&p, &mesh.inner, top_fraction, layout).map_err(fail)?
+        }
         _ => {
             return Err(PyValueError::new_err(
                 "give the truth once: as values (one per vertex), as a file or as a Truth",

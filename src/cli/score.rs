@@ -11,6 +11,7 @@ use meshgaze::saliency::{Method, RarityParams, Viewing};
 use meshgaze::scoring::dataset::{dataset_pairs, mesh_stem, score_table_markdown};
 use meshgaze::scoring::surface_blur::BlurKernel;
 use meshgaze::scoring::{blur_grid, ScoreParams, Weighting};
+use meshgaze::truth::TruthLayout;
 
 use super::progress_bar::Bars;
 
@@ -82,6 +83,12 @@ pub struct ScoreArgs {
     /// built-in hu2020).
     #[arg(long)]
     pub protocol: Option<PathBuf>,
+    /// Whether a truth map gives one value per vertex or per face (many published 3D gaze
+    /// datasets give faces). auto: per face when its rows number the mesh's triangles (and
+    /// not its vertices); a per-face map is carried to vertices by the area-weighted mean of
+    /// each vertex's faces.
+    #[arg(long, value_enum, default_value_t = TruthLayout::Auto)]
+    pub truth_layout: TruthLayout,
     /// A gaze model from `meshgaze train` for `--method gaze` (default: the built-in one).
     /// A mesh named like one of the model's training objects is refused: that score would
     /// be a training-set figure (use `meshgaze train --cv` for held-out figures).
@@ -118,6 +125,7 @@ pub fn run(args: ScoreArgs) -> Result<()> {
         params: &params,
         top_fraction: args.top_fraction,
         viewing: &viewing,
+        truth_layout: args.truth_layout,
     };
     let quiet = args.quiet;
     let mut tell = |m: &ScoredMesh| {

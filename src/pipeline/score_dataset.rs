@@ -16,7 +16,7 @@ use crate::saliency::{compute_saliency_viewed, Method, SmsParams, Viewing};
 use crate::scoring::dataset::{mean_summaries, write_score_rows, MeshEntry, SCORE_CSV_HEADER};
 use crate::scoring::{score_mesh, MeshScore, MethodSummary, ScoreParams};
 use crate::stimulus::hold_views::hold_view_exposure;
-use crate::truth::{load_ground_truth, GroundTruth};
+use crate::truth::{load_ground_truth, load_ground_truth_on, GroundTruth, TruthLayout};
 
 /// What to score, and how.
 pub struct ScoreRequest<'a> {
@@ -30,6 +30,8 @@ pub struct ScoreRequest<'a> {
     pub top_fraction: f64,
     /// The protocol (hold views, priors), the gaze model and the rarity parameters.
     pub viewing: &'a Viewing,
+    /// Per-vertex or per-face truth maps (or told by their row count).
+    pub truth_layout: TruthLayout,
 }
 
 /// One mesh, scored: what the caller may print.
@@ -136,7 +138,7 @@ pub fn score_dataset(
     let mut entries = Vec::new();
     for (name, mesh_path, truth_path) in req.pairs {
         let (mesh, load) = load_mesh(mesh_path)?;
-        let truth = load_ground_truth(truth_path, mesh.positions.len(), req.top_fraction)?;
+        let truth = load_ground_truth_on(truth_path, &mesh, req.top_fraction, req.truth_layout)?;
         inputs.push(InputFile::hash(mesh_path)?);
         inputs.push(InputFile::hash(truth_path)?);
         let (maps, seconds) = maps_of(req, name, mesh_path, &mesh, &mut inputs, progress)?;

@@ -10,7 +10,7 @@ use crate::protocol::Protocol;
 use crate::provenance::{sha256_hex, InputFile};
 use crate::scoring::dataset::dataset_pairs;
 use crate::stimulus::load::load_stimulus;
-use crate::truth::{load_ground_truth, read_density, GroundTruth};
+use crate::truth::{load_ground_truth_on, read_density, GroundTruth, TruthLayout};
 
 /// Where a training object comes from.
 #[derive(Debug, Clone)]
@@ -74,7 +74,7 @@ impl TrainingSource {
             TrainingSource::Points(p) => training_object(p, protocol).map_err(PipelineError::stage),
             TrainingSource::MeshTruth { name, mesh, truth } => {
                 let (m, _) = load_mesh(mesh).map_err(PipelineError::stage)?;
-                let t = load_ground_truth(truth, m.positions.len(), top_fraction)
+                let t = load_ground_truth_on(truth, &m, top_fraction, TruthLayout::Auto)
                     .map_err(PipelineError::stage)?;
                 let values = vertex_values(t, m.positions.len());
                 let sha = sha256_hex(format!("{} {}", hash(mesh)?, hash(truth)?).as_bytes());
@@ -248,7 +248,7 @@ pub fn evaluation_meshes(datasets: &[PathBuf]) -> Result<Vec<EvaluationMesh>, Pi
         let pairs = dataset_pairs(d).map_err(|e| PipelineError::stage(format!("{e:#}")))?;
         for (name, mesh_path, truth_path) in pairs {
             let (mesh, _) = load_mesh(&mesh_path).map_err(PipelineError::stage)?;
-            let truth = load_ground_truth(&truth_path, mesh.positions.len(), 0.05)
+            let truth = load_ground_truth_on(&truth_path, &mesh, 0.05, TruthLayout::Auto)
                 .map_err(PipelineError::stage)?;
             let GroundTruth::VertexMap(map) = truth else {
                 return Err(PipelineError::input(

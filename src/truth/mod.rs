@@ -4,8 +4,10 @@
 //! columns, one row per fixation, as `meshgaze truth` writes).
 pub mod build;
 mod density_file;
+mod face_map;
 
 pub use density_file::read_density;
+pub use face_map::{face_values_to_vertices, load_ground_truth_on, TruthLayout};
 
 pub use build::{
     build_truth, projected_file, read_projections, write_truth, Projections, TruthParams,
@@ -241,7 +243,8 @@ fn read_vertex_map(
     let mut flag_col = None;
     let mut vertex_col = None;
     if let Some(header) = t.header {
-        vertex_col = t.col("vertex");
+        // `face` for per-face maps (face_map.rs reads them with the face count).
+        vertex_col = t.col("vertex").or_else(|| t.col("face"));
         let others: Vec<usize> = (0..header.len())
             .filter(|&i| Some(i) != vertex_col)
             .collect();
