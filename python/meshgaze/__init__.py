@@ -411,6 +411,7 @@ def view(mesh: MeshLike, out: PathLike, maps: Mapping[str, np.ndarray] | None = 
                                stimulus=_path_or_none(stimulus), max_triangles=max_triangles,
                                title=title)
     path = os.fsdecode(out)
-    with open(path, "w", encoding="utf-8") as dst:
+    # newline="": the page's bytes as the CLI writes them, on every platform.
+    with open(path, "w", encoding="utf-8", newline="") as dst:
         dst.write(page)
     return path

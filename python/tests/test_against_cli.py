@@ -227,3 +227,22 @@ def test_view_writes_the_clis_page(cli, pipeline):
     with pytest.raises(meshgaze.MeshgazeError, match="another mesh"):
         small = meshgaze.Mesh(mesh.vertices[:3], np.array([[0, 1, 2]]))
         meshgaze.view(small, d / "bad.html", stimulus=d / "cli_stim")
+
+
+def test_score_reads_a_per_face_truth_as_the_cli_does(cli, repo, tmp_path):
+    mesh_path = repo / "stimuli" / "meshes" / "bun_zipper_res3.ply"
+    mesh = meshgaze.read_mesh(mesh_path)
+    heights = mesh.vertices[mesh.faces].mean(axis=1)[:, 1]  # one value per face
+    faces = tmp_path / "faces.csv"
+    faces.write_text("face,value\n" + "".join(f"{i},{float(v)!r}\n" for i, v in enumerate(heights)))
+    mc = meshgaze.saliency(mesh, "mc")
+    cli("saliency", mesh_path, "--method", "mc", "-o", tmp_path / "mc", "--quiet")
+    cli("score", "--mesh", mesh_path, "--truth", faces, "--saliency", tmp_path / "mc.csv",
+        "-o", tmp_path / "score", "--quiet", "--borji-splits", 5)
+    theirs = read_csv(tmp_path / "score.csv")
+    ours = meshgaze.score(mesh, {"mc": mc}, faces, borji_splits=5)
+    merged = ours.merge(theirs, on=["method", "metric", "blur"], suffixes=("", "_cli"))
+    assert len(merged) == len(ours) == len(theirs)
+    assert np.array_equal(merged["value"].to_numpy(), merged["value_cli"].to_numpy())
+    with pytest.raises(meshgaze.MeshgazeError, match="faces.csv"):
+        meshgaze.score(mesh, {"mc": mc}, faces, truth_layout="vertex")
