@@ -8,6 +8,7 @@ use crate::mesh::load_mesh;
 use crate::projection::table::{read_projected_csv, ProjectedRow};
 use crate::saliency::map_file::read_map;
 use crate::stimulus::load::load_stimulus;
+use crate::study::config::stem_of;
 use crate::truth::read_density;
 
 /// What to show, as paths.
@@ -25,16 +26,6 @@ pub struct ViewFiles {
     /// A stimulus folder (or manifest.json) rendered from this mesh.
     pub stimulus: Option<PathBuf>,
     pub limits: ViewerLimits,
-}
-
-fn stem(path: &Path) -> String {
-    path.file_name()
-        .unwrap_or_default()
-        .to_string_lossy()
-        .split('.')
-        .next()
-        .unwrap_or("")
-        .to_string()
 }
 
 fn csv_in(p: &Path, name: &str) -> PathBuf {
@@ -55,7 +46,7 @@ pub fn view_page_from_files(files: &ViewFiles) -> Result<(String, String)> {
             Some((name, path)) if !name.is_empty() && !Path::new(spec).exists() => {
                 (name.to_string(), PathBuf::from(path))
             }
-            _ => (stem(Path::new(spec)), PathBuf::from(spec)),
+            _ => (stem_of(Path::new(spec)), PathBuf::from(spec)),
         };
         if maps.iter().any(|(m, _): &(String, Vec<f64>)| *m == name) {
             bail!("two maps are named `{name}`: name them with NAME=PATH");
@@ -100,7 +91,7 @@ pub fn view_page_from_files(files: &ViewFiles) -> Result<(String, String)> {
         .transpose()
         .context("the stimulus must be rendered from this mesh")?;
     let input = ViewerInput {
-        title: stem(&files.mesh),
+        title: stem_of(&files.mesh),
         mesh: &mesh,
         maps,
         truth_density,
