@@ -1,4 +1,5 @@
-//! Reading input files whole, gzip or not (detected by the magic bytes, not the name).
+//! Reading input files whole, gzip or not (detected by the magic bytes, not the name), and
+//! the one rule that names a file by its stem.
 use std::io::Read;
 use std::path::Path;
 
@@ -39,4 +40,11 @@ pub fn create_output_dir(dir: &Path) -> Result<(), std::io::Error> {
             format!("cannot create output folder {}: {e}", dir.display()),
         )
     })
+}
+
+/// The stem of a file name: up to the first dot (`bunny.sms.csv` -> `bunny`), so a mesh and
+/// the maps written beside it share one name.
+pub fn stem_of(path: &Path) -> String {
+    let file = path.file_name().unwrap_or_default().to_string_lossy();
+    file.split('.').next().unwrap_or("").to_string()
 }

@@ -4,11 +4,11 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 
 use super::viewer::{viewer_page, ViewerInput, ViewerLimits};
+use crate::file_bytes::stem_of;
 use crate::mesh::load_mesh;
 use crate::projection::table::{read_projected_csv, ProjectedRow};
 use crate::saliency::map_file::read_map;
 use crate::stimulus::load::load_stimulus;
-use crate::study::config::stem_of;
 use crate::truth::read_density;
 
 /// What to show, as paths.

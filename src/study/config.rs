@@ -67,11 +67,9 @@ pub struct Study {
     pub unmatched: Vec<String>,
 }
 
-/// The stem of a file name: up to the first dot.
-pub fn stem_of(path: &Path) -> String {
-    let file = path.file_name().unwrap_or_default().to_string_lossy();
-    file.split('.').next().unwrap_or("").to_string()
-}
+/// A study names each mesh by its file's stem (up to the first dot); the viewer, below study
+/// in the import order, names maps the same way, so the rule lives with the file helpers.
+pub use crate::file_bytes::stem_of;
 
 fn expand(
     base: &Path,
