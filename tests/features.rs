@@ -6,7 +6,7 @@ use glam::DVec3;
 use meshgaze::experiments::features::{
     evaluate, feature_points, voted_ground_truth, GeodesicGraph,
 };
-use meshgaze::mesh::mean_curvature::test_meshes::icosphere;
+use meshgaze::mesh::test_meshes::icosphere;
 use meshgaze::mesh::Mesh;
 
 fn great_circle(p: DVec3, q: DVec3) -> f64 {

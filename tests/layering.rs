@@ -9,6 +9,7 @@ const ORDER: &[&str] = &[
     "file_bytes",
     "progress",
     "provenance",
+    "random",
     "protocol",
     "mesh",
     "stimulus",

@@ -5,7 +5,7 @@ mod common;
 
 use glam::DVec3;
 use meshgaze::mesh::geometry::pearson;
-use meshgaze::mesh::mean_curvature::test_meshes::icosphere;
+use meshgaze::mesh::test_meshes::icosphere;
 use meshgaze::mesh::Mesh;
 use meshgaze::progress::Silent;
 use meshgaze::saliency::{compute_saliency, Method, MethodOutput, SmsParams};

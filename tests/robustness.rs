@@ -5,8 +5,8 @@ mod common;
 use meshgaze::experiments::corruption::{
     add_normal_noise, boundary_loops, cut_holes, transfer_by_nearest_surface_point,
 };
-use meshgaze::mesh::mean_curvature::test_meshes::icosphere;
 use meshgaze::mesh::simplification::simplify_to_vertex_count;
+use meshgaze::mesh::test_meshes::icosphere;
 
 #[test]
 fn holes_are_separate_boundary_loops_in_a_closed_mesh() {

@@ -6,6 +6,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 use crate::mesh::Mesh;
+use crate::random::standard_normal;
 
 /// Moves every vertex along its normal by Gaussian noise with standard deviation
 /// `fraction` × the mean edge length (the paper's "20% noise": fraction = 0.2). Seeded.
@@ -23,13 +24,6 @@ pub fn add_normal_noise(mesh: &Mesh, fraction: f64, seed: u64) -> Mesh {
         positions,
         triangles: mesh.triangles.clone(),
     }
-}
-
-/// Box–Muller: one standard normal deviate from two uniforms.
-fn standard_normal(rng: &mut ChaCha8Rng) -> f64 {
-    let u1: f64 = 1.0 - rng.random::<f64>(); // (0, 1]: ln is finite
-    let u2: f64 = rng.random();
-    (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
 }
 
 /// Cuts `holes` patches out of the surface: around seeded random vertices, every triangle

@@ -440,7 +440,7 @@ pub fn clustered_gaussian_average(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::mean_curvature::test_meshes::icosphere;
+    use crate::mesh::test_meshes::icosphere;
 
     fn exact_average(
         sources: &[DVec3],

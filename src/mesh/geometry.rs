@@ -256,7 +256,7 @@ mod tests {
     #[test]
     fn the_normalization_is_the_sequential_one_to_the_bit_on_any_thread_count() {
         // More triangles than one block, off-centre and stretched so every term matters.
-        let mut mesh = crate::mesh::mean_curvature::test_meshes::icosphere(1.0, 6);
+        let mut mesh = crate::mesh::test_meshes::icosphere(1.0, 6);
         assert!(mesh.triangles.len() > MOMENT_BLOCK);
         for p in mesh.positions.iter_mut() {
             *p = DVec3::new(3.0 * p.x + 0.1, p.y - 2.0, 0.5 * p.z + 0.3 * p.x);

@@ -17,6 +17,8 @@ mod read;
 pub mod sampling;
 pub mod simplification;
 mod subdivide;
+pub mod test_meshes;
+pub mod vertex_areas;
 mod write_obj;
 mod write_ply;
 

@@ -204,7 +204,7 @@ pub fn nearest_corner(mesh: &Mesh, triangle: usize, point: DVec3) -> usize {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::mean_curvature::test_meshes::icosphere;
+    use crate::mesh::test_meshes::icosphere;
 
     #[test]
     fn hits_the_near_side_of_a_sphere() {

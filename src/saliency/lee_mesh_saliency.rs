@@ -228,7 +228,7 @@ mod tests {
 
     /// A flat square plate of n × n vertices with a small Gaussian bump.
     fn plate_with_bump(n: usize, bump: (f64, f64), width: f64, height: f64) -> Mesh {
-        crate::mesh::mean_curvature::test_meshes::height_field(n, 0.0, |x, y| {
+        crate::mesh::test_meshes::height_field(n, 0.0, |x, y| {
             let r2 = (x - bump.0).powi(2) + (y - bump.1).powi(2);
             height * (-r2 / (2.0 * width * width)).exp()
         })

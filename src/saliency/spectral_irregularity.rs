@@ -23,8 +23,9 @@ use crate::mesh::clustered_gaussian_average::{clustered_gaussian_average, Gaussi
 use crate::mesh::geometry::{BoundingBox, Normalization};
 use crate::mesh::simplification::simplify_to_vertex_count;
 use crate::mesh::transfer_by_nearest_vertex;
+use crate::mesh::vertex_areas::vertex_areas;
 use crate::mesh::Mesh;
-use crate::scoring::surface_blur::{vertex_areas, SurfaceBlur};
+use crate::scoring::surface_blur::SurfaceBlur;
 
 #[derive(Debug, Clone, Serialize)]
 pub struct SpectralParams {
@@ -269,7 +270,7 @@ mod tests {
     /// 12 valence-5 vertices instead; 10,242 vertices are simplified into an irregular mesh.
     #[test]
     fn si_finds_the_one_bump_on_a_sphere() {
-        let mut mesh = crate::mesh::mean_curvature::test_meshes::icosphere(1.0, 5);
+        let mut mesh = crate::mesh::test_meshes::icosphere(1.0, 5);
         let axis = glam::DVec3::new(0.3, 0.5, 0.81).normalize();
         let mut on_bump = Vec::new();
         for p in mesh.positions.iter_mut() {

@@ -368,7 +368,7 @@ mod tests {
     #[test]
     fn the_transform_matches_the_direct_sum_on_a_surface_and_in_a_cloud() {
         let mut rng = ChaCha8Rng::seed_from_u64(7);
-        let sphere = crate::mesh::mean_curvature::test_meshes::icosphere(1.0, 3).positions;
+        let sphere = crate::mesh::test_meshes::icosphere(1.0, 3).positions;
         let cloud: Vec<DVec3> = (0..700)
             .map(|_| DVec3::new(rng.random(), rng.random::<f64>() * 0.5, rng.random()))
             .collect();
@@ -406,7 +406,7 @@ mod tests {
 
     #[test]
     fn the_transform_is_the_same_on_any_number_of_threads() {
-        let sphere = crate::mesh::mean_curvature::test_meshes::icosphere(1.0, 3).positions;
+        let sphere = crate::mesh::test_meshes::icosphere(1.0, 3).positions;
         let rows: Vec<f64> = (0..sphere.len() * 2).map(|i| (i % 13) as f64).collect();
         let many = lattice_gauss_transform(&sphere, &rows, 2, 0.07);
         let one = rayon::ThreadPoolBuilder::new()

@@ -8,10 +8,11 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::mesh::geometry::{BoundingBox, Normalization};
+use crate::mesh::vertex_areas::vertex_areas;
 use crate::mesh::Mesh;
 use crate::progress::Progress;
 use crate::scoring::ground_truth::GroundTruth;
-use crate::scoring::surface_blur::{vertex_areas, BlurKernel, MeshBlur};
+use crate::scoring::surface_blur::{BlurKernel, MeshBlur};
 use crate::scoring::{auc_borji, auc_judd, gini_index, kl_divergence, lcc, nss, sim};
 
 /// How vertices count in the metrics.

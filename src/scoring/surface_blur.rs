@@ -9,17 +9,7 @@ use rayon::prelude::*;
 use crate::mesh::Mesh;
 use crate::scoring::lattice_gauss_transform::{lattice_gauss_transform, lattice_work};
 
-/// Vertex areas: one third of the area of each incident triangle.
-pub fn vertex_areas(mesh: &Mesh) -> Vec<f64> {
-    let mut a = vec![0.0; mesh.positions.len()];
-    for t in 0..mesh.triangles.len() {
-        let third = mesh.triangle_area(t) / 3.0;
-        for &i in &mesh.triangles[t] {
-            a[i as usize] += third;
-        }
-    }
-    a
-}
+use crate::mesh::vertex_areas::vertex_areas;
 
 pub struct SurfaceBlur {
     positions: Vec<DVec3>,
@@ -521,7 +511,7 @@ mod tests {
     use super::*;
 
     fn plate(n: usize) -> Mesh {
-        crate::mesh::mean_curvature::test_meshes::height_field(n, -0.5, |_, _| 0.0)
+        crate::mesh::test_meshes::height_field(n, -0.5, |_, _| 0.0)
     }
 
     #[test]
@@ -568,7 +558,7 @@ mod tests {
 
     #[test]
     fn euclidean_blur_equals_the_direct_sum_over_all_pairs() {
-        let mesh = crate::mesh::mean_curvature::test_meshes::icosphere(1.0, 3);
+        let mesh = crate::mesh::test_meshes::icosphere(1.0, 3);
         let areas = vertex_areas(&mesh);
         let blur = SurfaceBlur::new(mesh.positions.clone(), areas.clone());
         let map: Vec<f64> = (0..mesh.positions.len())
@@ -598,7 +588,7 @@ mod tests {
 
     #[test]
     fn the_scoring_blur_routes_sparse_maps_without_changing_the_three_sigma_sum() {
-        let mesh = crate::mesh::mean_curvature::test_meshes::icosphere(1.0, 4);
+        let mesh = crate::mesh::test_meshes::icosphere(1.0, 4);
         let n = mesh.positions.len();
         let areas = vertex_areas(&mesh);
         let exact = SurfaceBlur::new(mesh.positions.clone(), areas.clone());

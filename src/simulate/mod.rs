@@ -107,10 +107,7 @@ struct Normal<'a>(&'a mut ChaCha8Rng);
 
 impl Normal<'_> {
     fn sample(&mut self) -> f64 {
-        // Box–Muller; u1 in (0, 1] so the log is finite.
-        let u1: f64 = 1.0 - self.0.random::<f64>();
-        let u2: f64 = self.0.random();
-        (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+        crate::random::standard_normal(self.0)
     }
 }
 

@@ -756,7 +756,7 @@ impl RowEdges {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::mean_curvature::test_meshes::icosphere;
+    use crate::mesh::test_meshes::icosphere;
     use crate::protocol::Protocol;
     use crate::stimulus::camera::CameraPlan;
 

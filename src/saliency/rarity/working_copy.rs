@@ -11,11 +11,11 @@ use serde::Serialize;
 use crate::mesh::edge_graph::EdgeGraph;
 use crate::mesh::geometry::{BoundingBox, Normalization};
 use crate::mesh::simplification::simplify_to_vertex_count;
+use crate::mesh::vertex_areas::vertex_areas;
 use crate::mesh::Mesh;
 use crate::saliency::sms::gaussian_interpolation::{
     gaussian_interpolation, min_max_normalize, InterpolationKind,
 };
-use crate::scoring::surface_blur::vertex_areas;
 
 pub struct WorkingCopy {
     /// Every input vertex in the normalized frame (input order and count).
