@@ -21,7 +21,14 @@ use meshgaze::truth::{load_ground_truth, GroundTruth};
 fn objects(points: &Path, names: &[&str], protocol: &Protocol) -> Vec<TrainingObject> {
     names
         .iter()
-        .map(|n| training_object(&points.join(format!("{n}.txt.gz")), protocol).unwrap())
+        .map(|n| {
+            training_object(
+                &points.join(format!("{n}.txt.gz")),
+                "fixations-vr",
+                protocol,
+            )
+            .unwrap()
+        })
         .collect()
 }
 
@@ -288,4 +295,127 @@ fn meshes_with_truth_are_training_objects() {
         assert!((share - 0.05).abs() < 0.01, "{}: {share}", o.name);
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// Two datasets: the lab's 2 meshes weigh, together, `--weight` times the other dataset's 5
+/// objects; `--cv` holds each dataset out whole and each category out whole, beside each
+/// object; a weight naming no folder is refused with the folders' names.
+#[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
+fn two_datasets_are_balanced_weighted_and_held_out_whole() {
+    let data = common::shared_data();
+    let vr = data.join("fixations-vr");
+    let root = std::env::temp_dir().join(format!("meshgaze-two-ds-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    let (a, b) = (root.join("vr-part"), root.join("lab"));
+    for d in [&a, &b] {
+        std::fs::create_dir_all(d.join("meshes")).unwrap();
+        std::fs::create_dir_all(d.join("truth")).unwrap();
+    }
+    std::fs::create_dir_all(a.join("points")).unwrap();
+    for n in ["cat", "dog", "wolf", "lion"] {
+        let f = format!("points/{n}.txt.gz");
+        std::fs::copy(vr.join(&f), a.join(&f)).unwrap();
+    }
+    for (d, n) in [(&a, "horse"), (&b, "cow"), (&b, "hand")] {
+        let m = format!("meshes/{n}.obj.gz");
+        std::fs::copy(vr.join(&m), d.join(&m)).unwrap();
+        let t = format!("truth/{n}_objorder_time_bin.txt.gz");
+        std::fs::copy(vr.join(&t), d.join(&t)).unwrap();
+    }
+    let categories = root.join("families.tsv");
+    std::fs::write(
+        &categories,
+        "cat\tanimals\ndog\tanimals\nwolf\tanimals\nlion\tanimals\nhorse\tanimals\ncow\tanimals\nhand\thumans\n",
+    )
+    .unwrap();
+    let out = root.join("model.json");
+    let train = |extra: &[&str]| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+            .args([
+                "train",
+                "--quiet",
+                "--rounds",
+                "20",
+                "--rows-per-object",
+                "500",
+            ])
+            .arg("--dataset")
+            .arg(&a)
+            .arg(&b)
+            .arg("-o")
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap()
+    };
+    let refused = train(&["--weight", "nosuch=2"]);
+    assert!(!refused.status.success());
+    let message = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        message.contains("no --dataset or --study folder named `nosuch`")
+            && message.contains("vr-part, lab"),
+        "{message}"
+    );
+    let cat = categories.to_str().unwrap();
+    let run = train(&["--weight", "lab=2", "--cv", "--categories", cat]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let model = meshgaze::gaze_model::GazeModel::from_json(
+        &std::fs::read_to_string(&out).unwrap(),
+        "model",
+    )
+    .unwrap();
+    let d = &model.training.datasets;
+    let names: Vec<&str> = d.iter().map(|r| r.name.as_str()).collect();
+    assert_eq!(names, ["vr-part", "lab"]);
+    assert_eq!((d[0].objects, d[1].objects), (5, 2));
+    let total = |i: usize| d[i].rows as f64 * d[i].row_weight;
+    assert!((total(1) / total(0) - 2.0).abs() < 1e-9, "{d:?}");
+    let held = std::fs::read_to_string(root.join("model.held-out.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = held
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect())
+        .collect();
+    let find = |by: &str, object: &str| {
+        rows.iter()
+            .find(|r| r[0] == by && r[2] == object && r[3] == "none")
+            .unwrap_or_else(|| panic!("no {by} row for {object} in\n{held}"))
+    };
+    assert_eq!(find("dataset", "cow")[1], "lab");
+    assert_eq!(find("dataset", "horse")[1], "vr-part");
+    assert_eq!(find("category", "hand")[1], "humans");
+    assert_eq!(find("object", "hand")[1], "hand");
+    // Held out with its whole dataset, cow is predicted by a model that saw only vr-part:
+    // the two folds are different models, so (on real data) different scores.
+    let auc = |r: &Vec<&str>| r[4].parse::<f64>().unwrap();
+    assert_ne!(auc(find("dataset", "cow")), auc(find("object", "cow")));
+    let stdout = String::from_utf8_lossy(&run.stdout);
+    assert!(stdout.contains("Leave-one-dataset-out"), "{stdout}");
+    assert!(stdout.contains("Leave-one-category-out"), "{stdout}");
+    let _ = std::fs::remove_dir_all(&root);
+}
+
+/// The shipped categories file gives every object of fixations-vr a family (so
+/// `train --cv --categories models/fixations-vr-categories.tsv` runs on it).
+#[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
+fn every_fixations_vr_object_has_a_category() {
+    use meshgaze::experiments::gaze_model_cross_validation::Categories;
+    let categories =
+        Categories::read(&common::repo_root().join("models/fixations-vr-categories.tsv")).unwrap();
+    let points = common::shared_data().join("fixations-vr/points");
+    let mut missing = Vec::new();
+    for entry in std::fs::read_dir(&points).unwrap() {
+        let name = meshgaze::gaze_model::object_name(&entry.unwrap().path());
+        if name != "INDEX" && categories.category(&name).is_none() {
+            missing.push(name);
+        }
+    }
+    assert!(missing.is_empty(), "no category for {missing:?}");
+    assert_eq!(categories.of.len(), 44);
 }

@@ -5,8 +5,9 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 
 use meshgaze::experiments::timing::{
-    eyelink_parse_speed, paper_case, run_case, run_cell_in_child, scoring_cell, smi_parse_speed,
-    stimulus_cell, table_parse_speeds, CaseResult, StimulusCell, COMPETITORS, PAPER_CASES,
+    eyelink_parse_speed, gaze_features_cell, paper_case, run_case, run_cell_in_child, scoring_cell,
+    smi_parse_speed, stimulus_cell, table_parse_speeds, CaseResult, StimulusCell, COMPETITORS,
+    PAPER_CASES,
 };
 use meshgaze::saliency::Method;
 
@@ -53,6 +54,10 @@ pub struct BenchArgs {
     /// 120-fixation truth as a study scores them (about half a minute with the maps).
     #[arg(long, conflicts_with_all = ["case", "method", "csv", "parse_only"])]
     pub scoring_only: bool,
+    /// Only the gaze model's row: the seconds of each feature group and of the trees on the
+    /// 20k-vertex VR bunny (fixations-vr/meshes/bunny.obj.gz), a few seconds.
+    #[arg(long, conflicts_with_all = ["case", "method", "csv", "parse_only", "scoring_only"])]
+    pub gaze_only: bool,
 }
 
 /// The data folder: --data, else the first default place holding meshes/classic; the error
@@ -97,6 +102,9 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if args.scoring_only {
         return print_scoring(&data).map(|_| ());
     }
+    if args.gaze_only {
+        return print_gaze_features(&data);
+    }
     check_cell(&args)?;
     let exe = std::env::current_exe().context("cannot find the meshgaze executable")?;
     let rows = measure_cases(&args, &exe, &data)?;
@@ -115,6 +123,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     // One cell asked for: nothing else.
     if args.case.is_none() && args.method.is_none() {
         print_smi_parse(&data)?;
+        print_gaze_features(&data)?;
         let scoring = print_scoring(&data)?;
         if !args.skip_stimulus {
             let stimulus_s = print_stimulus(&exe, &data)?;
@@ -352,6 +361,25 @@ fn print_scoring(data: &Path) -> Result<(f64, f64)> {
         c.vertices, c.maps, c.maps_s, c.fixations, c.subjects, c.blur_scales, c.chance_draws, c.score_s
     );
     Ok((c.maps_s, c.score_s))
+}
+
+/// The gaze model's cost by feature group, so a lab can weigh what each group buys.
+fn print_gaze_features(data: &Path) -> Result<()> {
+    eprintln!("bench: gaze model features ...");
+    let c = gaze_features_cell(data)?;
+    let total: f64 = c.groups.iter().map(|g| g.1).sum::<f64>() + c.predict_s;
+    println!(
+        "\nGaze model on the VR bunny ({} vertices), by feature group: {}, trees {:.3} s; {:.2} s in all (loading not counted)",
+        c.vertices,
+        c.groups
+            .iter()
+            .map(|(g, s)| format!("{g} {s:.3} s"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        c.predict_s,
+        total
+    );
+    Ok(())
 }
 
 /// A 50-mesh study of 50k-vertex meshes on this machine, from the rows above: per mesh its

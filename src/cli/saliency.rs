@@ -37,6 +37,15 @@ use super::progress_bar::Bars;
 /// gaze (the learned gaze model: built-in, or --model from `meshgaze train`; docs/gaze_model.md).
 /// SMS defaults are the paper's; choices the paper leaves open have flags too (docs/sms.md).
 /// The --per-sample, --per-scale and --dense outputs exist for sms only.
+///
+/// What the built-in gaze model is: boosted trees trained on ONE experiment, the VR
+/// eye-tracking data of ../shared/data/fixations-vr (32 observers in a headset, 44 objects
+/// of the 3DVA benchmark). It learned that experiment's viewing habits and is not a general
+/// predictor of where people look: on another lab's meshes it has scored at chance where
+/// curvature did better. Before trusting it on your meshes, score it beside the classical
+/// methods on a few of your own with truth, and train on your own data:
+///   meshgaze score --dataset MY_LAB --method gaze,mr,sms,mc -o check
+///   meshgaze train --dataset ../shared/data/fixations-vr MY_LAB -o mine.json --cv
 #[derive(Debug, Args)]
 pub struct SaliencyArgs {
     /// The mesh (.obj, .ply, .off, optionally .gz), or a point cloud with normals

@@ -4,13 +4,17 @@ use anyhow::{Context, Result};
 use clap::Args;
 use rayon::prelude::*;
 
-use meshgaze::experiments::gaze_model_cross_validation::leave_one_object_out;
+use meshgaze::experiments::gaze_model_cross_validation::{cross_validate, Categories, CvPlan};
 use meshgaze::gaze_model::boosted_trees::BoostParams;
 use meshgaze::gaze_model::{train_model, TrainOptions, TrainingObject};
-use meshgaze::pipeline::training_data::{check_unique_names, evaluation_meshes, training_sources};
+use meshgaze::pipeline::training_data::{
+    check_unique_names, dataset_names, evaluation_meshes, training_sources,
+};
 use meshgaze::progress::Progress;
 use meshgaze::protocol::Protocol;
-use meshgaze::report::cross_validation_report::{cv_markdown, write_cv_csv, write_cv_figures};
+use meshgaze::report::cross_validation_report::{
+    cv_markdown, held_out_markdown, write_cv_csv, write_cv_figures, write_held_out_csv,
+};
 
 use super::progress_bar::Bars;
 
@@ -20,18 +24,26 @@ use super::progress_bar::Bars;
 ///
 /// Each DATASET folder holds `points/NAME.txt[.gz]` files, one line per surface point:
 /// `x y z nx ny nz time flag` (flag 1 = among the most looked-at, as in
-/// ../shared/data/fixations-vr/points). Every object weighs the same: `--rows-per-object`
-/// points are drawn from each with `--seed`. The model (OUT) records the feature list, the
-/// SHA-256 of every training file and the parameters; the same data and options give the
-/// same bytes.
+/// ../shared/data/fixations-vr/points). Every object of a dataset weighs the same
+/// (`--rows-per-object` points are drawn from each with `--seed`), and every dataset weighs
+/// the same whatever its number of objects: a lab's 2 pilot meshes count as much as the 44
+/// objects of fixations-vr, or `--weight NAME=W` times as much. The model (OUT) records the
+/// feature list, the SHA-256 of every training file, each dataset's weight and the
+/// parameters; the same data and options give the same bytes.
 ///
 /// With `--cv`, every mesh of a dataset's `meshes/` + `truth/` (as `meshgaze score
 /// --dataset` reads them) is held out in turn: a model trained on every other object
 /// predicts it and is scored (AUC-Judd plain and with never-shown vertices left out of the
 /// negatives, and LCC) beside mc, ms, sms, up, centre, up+mc and chance. The table goes to
-/// stdout and to OUT with `.cv.csv` in place of `.json`.
+/// stdout and to OUT with `.cv.csv` in place of `.json`. With two datasets or more, each
+/// dataset is also held out whole (leave-one-dataset-out: how the model does on a lab it
+/// never saw); with `--categories FILE`, each object family is (leave-one-category-out, the
+/// proxy for transfer within one dataset); `--ablations` retrains each of those without
+/// each feature group. Those rows go to OUT with `.held-out.csv`.
 ///
-/// Example: meshgaze train --dataset ../shared/data/fixations-vr -o gaze.json --cv
+/// Examples:
+///   meshgaze train --dataset ../shared/data/fixations-vr -o gaze.json --cv
+///   meshgaze train --dataset ../shared/data/fixations-vr my-lab --weight my-lab=2 -o lab.json --cv
 #[derive(Debug, Args)]
 pub struct TrainArgs {
     /// Dataset folders with `points/` and/or `meshes/` + `truth/` (as `meshgaze score
@@ -39,6 +51,19 @@ pub struct TrainArgs {
     /// top `--top-fraction` vertices by truth value as positives.
     #[arg(long, num_args = 1..)]
     pub dataset: Vec<PathBuf>,
+    /// A dataset's (or study folder's) weight relative to the others, by folder name:
+    /// `--weight my-lab=3` makes my-lab's rows together weigh three times another dataset's.
+    #[arg(long, value_name = "NAME=W")]
+    pub weight: Vec<String>,
+    /// With --cv: a TSV of `object<TAB>category` for every training object and held-out
+    /// mesh; each category is then held out whole in turn. meshgaze ships one for
+    /// fixations-vr (models/fixations-vr-categories.tsv).
+    #[arg(long, requires = "cv")]
+    pub categories: Option<PathBuf>,
+    /// With --cv: retrain every hold-out scheme without each feature group (placement,
+    /// orientation, shape, views, classical) in turn; six times the training.
+    #[arg(long, requires = "cv")]
+    pub ablations: bool,
     /// Study output folders (`meshgaze study run`): each mesh with truth/<mesh>/density.csv
     /// trains, its top `--top-fraction` vertices by fixation density as positives.
     #[arg(long, num_args = 1..)]
@@ -95,6 +120,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
         },
         rows_per_object: args.rows_per_object,
         seed: args.seed,
+        dataset_weights: parse_weights(&args.weight, &dataset_names(&args.dataset, &args.study)?)?,
     };
     let sources = training_sources(&args.dataset, &args.study, &args.exclude)?;
     let bars = Bars::new(args.quiet);
@@ -128,13 +154,13 @@ pub fn run(args: TrainArgs) -> Result<()> {
         eprintln!("  {name:<24} {share:.3}");
     }
     if args.cv {
-        cross_validate(&args, &objects, &options, &protocol, &bars)?;
+        run_cross_validation(&args, &objects, &options, &protocol, &bars)?;
     }
     Ok(())
 }
 
 /// `--cv`: leave each mesh with per-vertex truth out in turn; the table and the figures.
-fn cross_validate(
+fn run_cross_validation(
     args: &TrainArgs,
     objects: &[TrainingObject],
     options: &TrainOptions,
@@ -142,15 +168,60 @@ fn cross_validate(
     bars: &Bars,
 ) -> Result<()> {
     let meshes = evaluation_meshes(&args.dataset)?;
-    let cv = leave_one_object_out(objects, &meshes, options, protocol, bars)
+    let plan = CvPlan {
+        categories: match &args.categories {
+            Some(p) => Some(Categories::read(p).map_err(anyhow::Error::msg)?),
+            None => None,
+        },
+        ablations: args.ablations,
+    };
+    let cv = cross_validate(objects, &meshes, options, protocol, &plan, bars)
         .map_err(anyhow::Error::msg)?;
     let path = args.output.with_extension("cv.csv");
     write_cv_csv(&path, &cv.rows).with_context(|| format!("cannot write {}", path.display()))?;
+    let held_path = args.output.with_extension("held-out.csv");
+    write_held_out_csv(&held_path, &cv.held_out)
+        .with_context(|| format!("cannot write {}", held_path.display()))?;
     print!("{}", cv_markdown(&cv.rows));
+    print!("{}", held_out_markdown(&cv.held_out, &cv.rows));
     if let Some(dir) = &args.figures {
         write_cv_figures(dir, &meshes, &cv.held_out_maps, protocol).map_err(anyhow::Error::msg)?;
         eprintln!("figures: {}", dir.display());
     }
-    eprintln!("cross-validation table: {}", path.display());
+    eprintln!(
+        "cross-validation tables: {} and {}",
+        path.display(),
+        held_path.display()
+    );
     Ok(())
+}
+
+/// `--weight NAME=W` entries, each naming one of the given folders.
+fn parse_weights(specs: &[String], names: &[String]) -> Result<Vec<(String, f64)>> {
+    let mut out: Vec<(String, f64)> = Vec::new();
+    for spec in specs {
+        let Some((name, w)) = spec.rsplit_once('=') else {
+            anyhow::bail!("--weight {spec}: expected NAME=W, e.g. --weight my-lab=3");
+        };
+        let name = name.trim_end_matches('/');
+        let name = std::path::Path::new(name)
+            .file_name()
+            .map_or(name.to_string(), |n| n.to_string_lossy().to_string());
+        if !names.contains(&name) {
+            anyhow::bail!(
+                "--weight {spec}: no --dataset or --study folder named `{name}` (the folders are named {})",
+                names.join(", ")
+            );
+        }
+        let w: f64 = w
+            .parse()
+            .ok()
+            .filter(|w: &f64| w.is_finite() && *w > 0.0)
+            .with_context(|| format!("--weight {spec}: W must be a positive number"))?;
+        if out.iter().any(|(n, _)| *n == name) {
+            anyhow::bail!("--weight names `{name}` twice");
+        }
+        out.push((name, w));
+    }
+    Ok(out)
 }

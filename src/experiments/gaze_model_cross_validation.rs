@@ -1,11 +1,23 @@
-//! Leave-one-object-out evaluation: for each mesh with per-vertex truth, a model trained on
-//! every other object predicts it, and is scored beside the shape methods, the priors and
-//! chance, plain and with the never-shown vertices left out of the negatives.
+//! Held-out evaluation of the gaze model: for each mesh with per-vertex truth, a model trained
+//! without it predicts it, and is scored beside the shape methods, the priors and chance,
+//! plain and with the never-shown vertices left out of the negatives.
+//!
+//! "Without it" is asked three ways: without the object (leave-one-object-out), without its
+//! whole dataset (leave-one-dataset-out: the nearest thing to another lab's data), and without
+//! its object family (leave-one-category-out, from a categories file: the proxy for transfer
+//! when there is one dataset). Feature-group ablations retrain each of those without one
+//! group of features, to show which group carries a held-out figure.
 use serde::Serialize;
 
-use crate::gaze_model::features::ranks;
+use std::path::Path;
+
+use rayon::prelude::*;
+
+use crate::gaze_model::features::{
+    feature_group, point_features, ranks, FeatureMatrix, FEATURE_GROUPS,
+};
 use crate::gaze_model::surface_points::SurfacePoints;
-use crate::gaze_model::{train_model, TrainOptions, TrainingObject};
+use crate::gaze_model::{train_model_without, TrainOptions, TrainingObject};
 use crate::mesh::Mesh;
 use crate::progress::Progress;
 use crate::protocol::Protocol;
@@ -18,6 +30,8 @@ use crate::stimulus::hold_views::hold_view_exposure;
 /// A mesh with per-vertex human truth.
 pub struct EvaluationMesh {
     pub name: String,
+    /// The dataset folder it came from (leave-one-dataset-out holds these out together).
+    pub dataset: String,
     pub mesh: Mesh,
     pub values: Vec<f64>,
     pub positive: Vec<bool>,
@@ -46,43 +60,259 @@ pub const BASELINES: [Method; 5] = [
 
 /// What cross-validation measured: the score rows and each held-out mesh's predicted map.
 pub struct CvResult {
+    /// Leave-one-object-out, every method (the gaze model with every feature).
     pub rows: Vec<CvRow>,
+    /// The gaze model under every hold-out scheme and ablation asked for.
+    pub held_out: Vec<HeldOutRow>,
     /// (mesh name, the gaze model's map from the fold that held it out).
     pub held_out_maps: Vec<(String, Vec<f64>)>,
 }
 
-pub fn leave_one_object_out(
+/// What a fold holds out with the mesh it predicts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Scheme {
+    Object,
+    Dataset,
+    Category,
+}
+
+impl Scheme {
+    pub fn name(self) -> &'static str {
+        match self {
+            Scheme::Object => "object",
+            Scheme::Dataset => "dataset",
+            Scheme::Category => "category",
+        }
+    }
+}
+
+/// The gaze model on one held-out mesh under one scheme, with one feature group (or none)
+/// left out of training.
+#[derive(Debug, Clone, Serialize, PartialEq)]
+pub struct HeldOutRow {
+    /// `object`, `dataset` or `category`.
+    pub held_out_by: String,
+    /// The held-out group (the object, its dataset or its category).
+    pub group: String,
+    pub object: String,
+    /// The feature group left out of training, or `none`.
+    pub without: String,
+    pub auc_judd: f64,
+    pub auc_judd_visible: f64,
+    pub lcc: f64,
+}
+
+/// Object name -> category, read from a two-column TSV (`name<TAB>category`, `#` comments).
+#[derive(Debug, Clone, Default)]
+pub struct Categories {
+    pub of: Vec<(String, String)>,
+}
+
+impl Categories {
+    pub fn read(path: &Path) -> Result<Categories, String> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+        Categories::parse(&text, &path.display().to_string())
+    }
+
+    pub fn parse(text: &str, name: &str) -> Result<Categories, String> {
+        let mut of: Vec<(String, String)> = Vec::new();
+        for (i, line) in text.lines().enumerate() {
+            let line = line.trim_end_matches('\r');
+            if line.trim().is_empty() || line.starts_with('#') {
+                continue;
+            }
+            let fields: Vec<&str> = line.split('\t').map(str::trim).collect();
+            if fields.len() != 2 || fields.iter().any(|f| f.is_empty()) {
+                return Err(format!(
+                    "{name}:{}:1: expected `object<TAB>category`, found {:?}",
+                    i + 1,
+                    line
+                ));
+            }
+            if let Some((_, c)) = of.iter().find(|(o, _)| o == fields[0]) {
+                return Err(format!(
+                    "{name}:{}:1: `{}` is already in category `{c}`",
+                    i + 1,
+                    fields[0]
+                ));
+            }
+            of.push((fields[0].to_string(), fields[1].to_string()));
+        }
+        if of.is_empty() {
+            return Err(format!("{name}: no `object<TAB>category` lines"));
+        }
+        Ok(Categories { of })
+    }
+
+    pub fn category(&self, object: &str) -> Option<&str> {
+        self.of
+            .iter()
+            .find(|(o, _)| o == object)
+            .map(|(_, c)| c.as_str())
+    }
+}
+
+/// What to hold out beyond single objects.
+#[derive(Debug, Clone, Default)]
+pub struct CvPlan {
+    /// Leave-one-category-out with these categories.
+    pub categories: Option<Categories>,
+    /// Retrain every scheme without each feature group in turn.
+    pub ablations: bool,
+}
+
+/// The schemes `plan` asks for on these objects: leave-one-dataset-out only when the objects
+/// come from two datasets or more.
+pub fn schemes(objects: &[TrainingObject], plan: &CvPlan) -> Vec<Scheme> {
+    let mut out = vec![Scheme::Object];
+    let first = objects.first().map(|o| o.dataset.as_str());
+    if objects.iter().any(|o| Some(o.dataset.as_str()) != first) {
+        out.push(Scheme::Dataset);
+    }
+    if plan.categories.is_some() {
+        out.push(Scheme::Category);
+    }
+    out
+}
+
+/// Every fold of every scheme of `plan`, and the baselines once per mesh.
+pub fn cross_validate(
     objects: &[TrainingObject],
     meshes: &[EvaluationMesh],
     options: &TrainOptions,
     protocol: &Protocol,
+    plan: &CvPlan,
     progress: &dyn Progress,
 ) -> Result<CvResult, String> {
+    let schemes = schemes(objects, plan);
+    if let Some(categories) = &plan.categories {
+        let missing: Vec<&str> = objects
+            .iter()
+            .map(|o| o.name.as_str())
+            .chain(meshes.iter().map(|m| m.name.as_str()))
+            .filter(|n| categories.category(n).is_none())
+            .collect();
+        if !missing.is_empty() {
+            return Err(format!(
+                "the categories file names no category for: {}; every training object and held-out mesh needs one",
+                missing.join(", ")
+            ));
+        }
+    }
+    let group_of = |scheme: Scheme, name: &str, dataset: &str| -> String {
+        match scheme {
+            Scheme::Object => name.to_string(),
+            Scheme::Dataset => dataset.to_string(),
+            Scheme::Category => plan
+                .categories
+                .as_ref()
+                .and_then(|c| c.category(name))
+                .unwrap_or("")
+                .to_string(),
+        }
+    };
+    let withouts: Vec<&str> = if plan.ablations {
+        std::iter::once("none").chain(FEATURE_GROUPS).collect()
+    } else {
+        vec!["none"]
+    };
+    // Every (scheme, held-out group, ablation) is one training run.
+    let mut folds: Vec<(Scheme, String, &str)> = Vec::new();
+    for &scheme in &schemes {
+        let mut groups: Vec<String> = Vec::new();
+        for m in meshes {
+            let g = group_of(scheme, &m.name, &m.dataset);
+            if !groups.contains(&g) {
+                groups.push(g);
+            }
+        }
+        for g in groups {
+            for &w in &withouts {
+                folds.push((scheme, g.clone(), w));
+            }
+        }
+    }
+    progress.start("held-out folds", (folds.len() + meshes.len()) as u64);
+    let features: Vec<FeatureMatrix> = meshes
+        .par_iter()
+        .map(|m| point_features(&SurfacePoints::of_mesh(&m.mesh), protocol))
+        .collect::<Result<_, _>>()?;
+    let seen: Vec<Vec<bool>> = meshes
+        .iter()
+        .map(|m| hold_view_exposure(&m.mesh, protocol).map(|e| e.seen()))
+        .collect::<Result<_, _>>()?;
+    let predictions: Vec<Vec<(usize, Vec<f64>)>> = folds
+        .par_iter()
+        .map(|(scheme, group, without)| {
+            let training: Vec<&TrainingObject> = objects
+                .iter()
+                .filter(|o| group_of(*scheme, &o.name, &o.dataset) != *group)
+                .collect();
+            let dropped: Vec<String> = if *without == "none" {
+                Vec::new()
+            } else {
+                features[0]
+                    .names
+                    .iter()
+                    .filter(|n| feature_group(n) == *without)
+                    .cloned()
+                    .collect()
+            };
+            let model = train_model_without(&training, options, &protocol.name, &dropped)?;
+            let out = meshes
+                .iter()
+                .enumerate()
+                .filter(|(_, m)| group_of(*scheme, &m.name, &m.dataset) == *group)
+                .map(|(i, _)| (i, model.predict_features(&features[i])))
+                .collect();
+            progress.advance(1);
+            Ok(out)
+        })
+        .collect::<Result<_, String>>()?;
+    let score = |i: usize, name: &str, map: &[f64]| CvRow {
+        object: meshes[i].name.clone(),
+        method: name.to_string(),
+        auc_judd: auc_judd(map, &meshes[i].positive, None),
+        auc_judd_visible: auc_judd_seen(map, &meshes[i].positive, &seen[i], None),
+        lcc: lcc(map, &meshes[i].values, None),
+    };
+    let mut held_out = Vec::new();
+    let mut held_out_maps = vec![Vec::new(); meshes.len()];
+    for ((scheme, group, without), maps) in folds.iter().zip(predictions) {
+        for (i, map) in maps {
+            let r = score(i, "gaze", &map);
+            held_out.push(HeldOutRow {
+                held_out_by: scheme.name().to_string(),
+                group: group.clone(),
+                object: r.object,
+                without: without.to_string(),
+                auc_judd: r.auc_judd,
+                auc_judd_visible: r.auc_judd_visible,
+                lcc: r.lcc,
+            });
+            if *scheme == Scheme::Object && *without == "none" {
+                held_out_maps[i] = map;
+            }
+        }
+    }
     let viewing = Viewing {
         protocol: protocol.clone(),
         model: None,
         rarity: Default::default(),
     };
     let mut rows = Vec::new();
-    let mut held_out_maps = Vec::new();
-    progress.start("leave-one-object-out", meshes.len() as u64);
-    for held_out in meshes {
-        let training: Vec<&TrainingObject> =
-            objects.iter().filter(|o| o.name != held_out.name).collect();
-        let model = train_model(&training, options, &protocol.name)?;
-        let gaze = model.predict(&SurfacePoints::of_mesh(&held_out.mesh), protocol)?;
-        let seen = hold_view_exposure(&held_out.mesh, protocol)?.seen();
-        held_out_maps.push((held_out.name.clone(), gaze.clone()));
-        let mut maps: Vec<(String, Vec<f64>)> = vec![("gaze".into(), gaze)];
+    for (i, held) in meshes.iter().enumerate() {
+        let mut maps: Vec<(String, Vec<f64>)> = vec![("gaze".into(), held_out_maps[i].clone())];
         for method in BASELINES {
             let out = compute_saliency_viewed(
                 method,
-                &held_out.mesh,
+                &held.mesh,
                 &SmsParams::default(),
                 &viewing,
                 &crate::progress::Silent,
             )
-            .map_err(|e| format!("{}: {}: {e}", held_out.name, method.name()))?;
+            .map_err(|e| format!("{}: {}: {e}", held.name, method.name()))?;
             maps.push((method.name().to_string(), out.values));
         }
         let rank_sum: Vec<f64> = {
@@ -91,23 +321,16 @@ pub fn leave_one_object_out(
             u.iter().zip(&c).map(|(a, b)| a + b).collect()
         };
         maps.push(("up+mc".into(), rank_sum));
-        let score = |name: &str, map: &[f64]| CvRow {
-            object: held_out.name.clone(),
-            method: name.to_string(),
-            auc_judd: auc_judd(map, &held_out.positive, None),
-            auc_judd_visible: auc_judd_seen(map, &held_out.positive, &seen, None),
-            lcc: lcc(map, &held_out.values, None),
-        };
         for (name, map) in &maps {
-            rows.push(score(name, map));
+            rows.push(score(i, name, map));
         }
-        let chance: Vec<CvRow> = chance_maps(held_out.mesh.positions.len(), 20, 7)
+        let chance: Vec<CvRow> = chance_maps(held.mesh.positions.len(), 20, 7)
             .iter()
-            .map(|m| score("chance", m))
+            .map(|m| score(i, "chance", m))
             .collect();
         let mean = |f: fn(&CvRow) -> f64| chance.iter().map(f).sum::<f64>() / chance.len() as f64;
         rows.push(CvRow {
-            object: held_out.name.clone(),
+            object: held.name.clone(),
             method: "chance".into(),
             auc_judd: mean(|r| r.auc_judd),
             auc_judd_visible: mean(|r| r.auc_judd_visible),
@@ -118,8 +341,43 @@ pub fn leave_one_object_out(
     progress.finish();
     Ok(CvResult {
         rows,
-        held_out_maps,
+        held_out,
+        held_out_maps: meshes
+            .iter()
+            .map(|m| m.name.clone())
+            .zip(held_out_maps)
+            .collect(),
     })
+}
+
+/// Mean gaze AUC-Judd (plain, visible) and LCC per (scheme, ablation), in first-seen order,
+/// with the number of held-out meshes: the summary of `held_out`.
+pub fn held_out_means(rows: &[HeldOutRow]) -> Vec<(String, String, usize, f64, f64, f64)> {
+    let mut keys: Vec<(String, String)> = Vec::new();
+    for r in rows {
+        let k = (r.held_out_by.clone(), r.without.clone());
+        if !keys.contains(&k) {
+            keys.push(k);
+        }
+    }
+    keys.into_iter()
+        .map(|(by, without)| {
+            let of: Vec<&HeldOutRow> = rows
+                .iter()
+                .filter(|r| r.held_out_by == by && r.without == without)
+                .collect();
+            let k = of.len() as f64;
+            let mean = |f: fn(&HeldOutRow) -> f64| of.iter().map(|r| f(r)).sum::<f64>() / k;
+            (
+                by,
+                without,
+                of.len(),
+                mean(|r| r.auc_judd),
+                mean(|r| r.auc_judd_visible),
+                mean(|r| r.lcc),
+            )
+        })
+        .collect()
 }
 
 /// Mean of each method over the objects, methods in first-seen order.
@@ -144,4 +402,42 @@ pub fn mean_rows(rows: &[CvRow]) -> Vec<CvRow> {
             }
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    #[test]
+    fn categories_are_read_and_bad_lines_named() {
+        let c = Categories::parse(
+            "# family\nbunny\tanimals\r\njames\thumans and heads\n",
+            "c.tsv",
+        )
+        .unwrap();
+        assert_eq!(c.category("bunny"), Some("animals"));
+        assert_eq!(c.category("james"), Some("humans and heads"));
+        assert_eq!(c.category("cow"), None);
+        let e = Categories::parse("bunny\tanimals\ncow animals\n", "c.tsv").unwrap_err();
+        assert!(
+            e.starts_with("c.tsv:2:1: expected `object<TAB>category`"),
+            "{e}"
+        );
+        let e = Categories::parse("bunny\tanimals\nbunny\tpets\n", "c.tsv").unwrap_err();
+        assert!(
+            e.contains("c.tsv:2:1: `bunny` is already in category `animals`"),
+            "{e}"
+        );
+        assert!(Categories::parse("# nothing\n", "c.tsv").is_err());
+    }
+
+    proptest! {
+        #[test]
+        fn the_categories_parser_never_panics(text in "[a-z\t\r\n# ]{0,200}") {
+            if let Err(e) = Categories::parse(&text, "c.tsv") {
+                prop_assert!(e.starts_with("c.tsv"));
+            }
+        }
+    }
 }

@@ -4,6 +4,7 @@
 use glam::DVec3;
 
 use super::local_shape::local_shape;
+use super::shape_contrast::{centre_surround, curvature_ranks, descriptor_rarity};
 use super::surface_points::SurfacePoints;
 use super::view_visibility::{bounds, view_exposure};
 use crate::protocol::Protocol;
@@ -35,7 +36,37 @@ pub fn feature_names() -> Vec<String> {
     for name in ["seen_fraction", "centre_closeness", "facing", "openness"] {
         names.push(name.to_string());
     }
+    for r in SHAPE_RADII {
+        names.push(format!("curvature_rank_r{r}"));
+    }
+    names.push("centre_surround".to_string());
+    names.push("shape_rarity".to_string());
     names
+}
+
+/// The feature groups, for ablations and for saying what each costs: where a point sits
+/// (along up, front, side), which way its normal points, its local shape at four scales,
+/// what the hold views show of it, and the classical methods' ingredients as per-object
+/// ranks.
+pub const FEATURE_GROUPS: [&str; 5] = ["placement", "orientation", "shape", "views", "classical"];
+
+/// The group of a feature name of `feature_names()`.
+pub fn feature_group(name: &str) -> &'static str {
+    let shape = ["variation_r", "convexity_r", "normal_agreement_r"];
+    if shape.iter().any(|p| name.starts_with(p)) {
+        "shape"
+    } else if ["seen_fraction", "centre_closeness", "facing", "openness"].contains(&name) {
+        "views"
+    } else if name.starts_with("curvature_rank_r")
+        || name == "centre_surround"
+        || name == "shape_rarity"
+    {
+        "classical"
+    } else if name.starts_with("normal_") {
+        "orientation"
+    } else {
+        "placement"
+    }
 }
 
 /// Column-major feature matrix: `columns[f][i]` is feature f of point i.
@@ -70,20 +101,70 @@ pub fn point_features(
     points: &SurfacePoints,
     protocol: &Protocol,
 ) -> Result<FeatureMatrix, String> {
+    point_features_timed(points, protocol, &mut |_, _| {})
+}
+
+/// `point_features`, telling `spent(group, seconds)` what each feature group cost (placement
+/// and orientation are timed together: they share one pass).
+pub fn point_features_timed(
+    points: &SurfacePoints,
+    protocol: &Protocol,
+    spent: &mut dyn FnMut(&'static str, f64),
+) -> Result<FeatureMatrix, String> {
     let (center, radius) = bounds(points).ok_or("no points")?;
     if radius <= 0.0 || !radius.is_finite() {
         return Err("the points have no extent".into());
     }
+    let n = points.len();
+    let clock = std::time::Instant::now();
+    let mut columns = placement_and_orientation(points, protocol, center, radius);
+    spent("placement+orientation", clock.elapsed().as_secs_f64());
+    let clock = std::time::Instant::now();
+    let radii: Vec<f64> = SHAPE_RADII.iter().map(|f| f * radius).collect();
+    let mut shape: Vec<Vec<f64>> = Vec::new();
+    for scale in local_shape(points, &radii) {
+        shape.push(scale.iter().map(|s| s.variation).collect());
+        shape.push(scale.iter().map(|s| s.convexity).collect());
+        shape.push(scale.iter().map(|s| s.normal_agreement).collect());
+    }
+    spent("shape", clock.elapsed().as_secs_f64());
+    let clock = std::time::Instant::now();
+    let views = view_exposure(points, protocol)?;
+    spent("views", clock.elapsed().as_secs_f64());
+    let clock = std::time::Instant::now();
+    let classical = classical_stand_ins(&shape);
+    spent("classical", clock.elapsed().as_secs_f64());
+    columns.extend(shape);
+    columns.push(views.seen_fraction);
+    columns.push(views.centre_closeness);
+    columns.push(views.facing);
+    columns.push(views.openness);
+    columns.extend(classical);
+    debug_assert!(columns.iter().all(|c| c.len() == n));
+    Ok(FeatureMatrix {
+        names: feature_names(),
+        columns,
+    })
+}
+
+/// The placement columns (height, its rank, front, side and axis distance, centre distance)
+/// then the orientation columns (normal along up, front, outward), the object centred on
+/// `center` and scaled by `radius`.
+fn placement_and_orientation(
+    points: &SurfacePoints,
+    protocol: &Protocol,
+    center: DVec3,
+    radius: f64,
+) -> Vec<Vec<f64>> {
     let (up, front) = up_and_front(protocol);
     let side = up.cross(front);
-    let n = points.len();
     let rel: Vec<DVec3> = points
         .positions
         .iter()
         .map(|&p| (p - center) / radius)
         .collect();
     let height: Vec<f64> = rel.iter().map(|q| q.dot(up)).collect();
-    let mut columns = vec![
+    vec![
         height.clone(),
         ranks(&height),
         rel.iter().map(|q| q.dot(front)).collect(),
@@ -96,23 +177,18 @@ pub fn point_features(
             .zip(&points.normals)
             .map(|(q, m)| m.dot(q.normalize_or_zero()))
             .collect(),
-    ];
-    let radii: Vec<f64> = SHAPE_RADII.iter().map(|f| f * radius).collect();
-    for scale in local_shape(points, &radii) {
-        columns.push(scale.iter().map(|s| s.variation).collect());
-        columns.push(scale.iter().map(|s| s.convexity).collect());
-        columns.push(scale.iter().map(|s| s.normal_agreement).collect());
-    }
-    let views = view_exposure(points, protocol)?;
-    columns.push(views.seen_fraction);
-    columns.push(views.centre_closeness);
-    columns.push(views.facing);
-    columns.push(views.openness);
-    debug_assert!(columns.iter().all(|c| c.len() == n));
-    Ok(FeatureMatrix {
-        names: feature_names(),
-        columns,
-    })
+    ]
+}
+
+/// The classical group from the shape columns (variation, convexity, normal agreement per
+/// scale, in that order): curvature ranks per scale, centre-surround, shape rarity.
+fn classical_stand_ins(shape: &[Vec<f64>]) -> Vec<Vec<f64>> {
+    let convexity: Vec<&[f64]> = shape.iter().skip(1).step_by(3).map(Vec::as_slice).collect();
+    let mut out = curvature_ranks(&convexity);
+    out.push(centre_surround(&convexity));
+    let all: Vec<&[f64]> = shape.iter().map(Vec::as_slice).collect();
+    out.push(descriptor_rarity(&all));
+    out
 }
 
 /// Fractional ranks in [0, 1] (ties share their mean rank): a per-object, scale-free version
@@ -139,4 +215,21 @@ pub fn ranks(values: &[f64]) -> Vec<f64> {
         i = j + 1;
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_feature_is_in_one_named_group() {
+        let names = feature_names();
+        let count = |g: &str| names.iter().filter(|n| feature_group(n) == g).count();
+        assert_eq!(
+            FEATURE_GROUPS.map(count),
+            [6, 3, 12, 4, 6],
+            "placement, orientation, shape, views, classical"
+        );
+        assert_eq!(FEATURE_GROUPS.map(count).iter().sum::<usize>(), names.len());
+    }
 }

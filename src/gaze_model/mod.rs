@@ -9,6 +9,7 @@ pub mod boosted_trees;
 
 pub mod features;
 pub mod local_shape;
+pub mod shape_contrast;
 pub mod surface_points;
 pub mod view_visibility;
 
@@ -34,6 +35,8 @@ pub const MODEL_FORMAT: &str = "meshgaze-gaze-model";
 #[derive(Debug, Clone)]
 pub struct TrainingObject {
     pub name: String,
+    /// The dataset (or study) it came from, by folder name: training balances datasets.
+    pub dataset: String,
     pub sha256: String,
     pub features: FeatureMatrix,
     pub labels: Vec<bool>,
@@ -43,6 +46,9 @@ pub struct TrainingObject {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TrainingRecord {
     pub objects: Vec<ObjectRecord>,
+    /// Each dataset's share of the training weight: a lab's 2 meshes weigh as much as
+    /// another dataset's 59 unless a weight says otherwise.
+    pub datasets: Vec<DatasetRecord>,
     pub rows_per_object: usize,
     pub seed: u64,
     pub protocol: String,
@@ -51,10 +57,24 @@ pub struct TrainingRecord {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ObjectRecord {
     pub name: String,
+    pub dataset: String,
     pub sha256: String,
     pub points: usize,
     pub positives: usize,
     pub rows_used: usize,
+}
+
+/// One dataset of a model's training data and the weight it carried.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct DatasetRecord {
+    pub name: String,
+    pub objects: usize,
+    pub rows: usize,
+    /// The weight asked for (`train --weight NAME=W`, 1 by default).
+    pub weight: f64,
+    /// What each of its rows weighed in training: rows × weight / (its share of all rows),
+    /// so the datasets' total weights stand in the ratio of their `weight`s.
+    pub row_weight: f64,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -74,6 +94,9 @@ pub struct TrainOptions {
     /// weighs the same whatever its size.
     pub rows_per_object: usize,
     pub seed: u64,
+    /// Weight of a dataset by name (1 when absent): its rows together weigh this much
+    /// relative to every other dataset's, whatever the number of objects in each.
+    pub dataset_weights: Vec<(String, f64)>,
 }
 
 impl Default for TrainOptions {
@@ -82,12 +105,27 @@ impl Default for TrainOptions {
             params: BoostParams::default(),
             rows_per_object: 4000,
             seed: 1,
+            dataset_weights: Vec::new(),
         }
     }
 }
 
+impl TrainOptions {
+    fn weight_of(&self, dataset: &str) -> f64 {
+        self.dataset_weights
+            .iter()
+            .find(|(name, _)| name == dataset)
+            .map_or(1.0, |(_, w)| *w)
+    }
+}
+
 /// Reads a gaze-point file with a flag column and computes its features.
-pub fn training_object(path: &Path, protocol: &Protocol) -> Result<TrainingObject, String> {
+/// `dataset` names the folder it belongs to (training balances datasets).
+pub fn training_object(
+    path: &Path,
+    dataset: &str,
+    protocol: &Protocol,
+) -> Result<TrainingObject, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
     let points = read_gaze_points(path).map_err(|e| e.to_string())?;
     let Some(labels) = points.flag else {
@@ -100,6 +138,7 @@ pub fn training_object(path: &Path, protocol: &Protocol) -> Result<TrainingObjec
         point_features(&points.points, protocol).map_err(|e| format!("{}: {e}", path.display()))?;
     Ok(TrainingObject {
         name: object_name(path),
+        dataset: dataset.to_string(),
         sha256: sha256_hex(&bytes),
         features,
         labels,
@@ -112,6 +151,7 @@ pub fn training_object(path: &Path, protocol: &Protocol) -> Result<TrainingObjec
 /// `sha256` names the inputs (e.g. of the mesh and the truth file together).
 pub fn training_object_from_map(
     name: &str,
+    dataset: &str,
     sha256: String,
     mesh: &crate::mesh::Mesh,
     values: &[f64],
@@ -139,6 +179,7 @@ pub fn training_object_from_map(
     }
     Ok(TrainingObject {
         name: name.to_string(),
+        dataset: dataset.to_string(),
         sha256,
         features,
         labels,
@@ -161,28 +202,58 @@ pub fn train_model(
     options: &TrainOptions,
     protocol_name: &str,
 ) -> Result<GazeModel, String> {
+    train_model_without(objects, options, protocol_name, &[])
+}
+
+/// `train_model` with the `dropped` features held constant (so no tree splits on them): the
+/// ablations of cross-validation. The model still takes every feature as input.
+pub fn train_model_without(
+    objects: &[&TrainingObject],
+    options: &TrainOptions,
+    protocol_name: &str,
+    dropped: &[String],
+) -> Result<GazeModel, String> {
     let names = feature_names();
+    if let Some(unknown) = dropped.iter().find(|d| !names.contains(d)) {
+        return Err(format!("no feature named `{unknown}` to leave out"));
+    }
     let mut columns: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
     let mut labels = Vec::new();
     let mut records = Vec::new();
+    let mut row_dataset = Vec::new();
     for object in objects {
         if object.features.names != names {
             return Err(format!("{}: features of another version", object.name));
         }
         let rows = sample_rows(object, options);
         for (f, column) in columns.iter_mut().enumerate() {
-            column.extend(rows.iter().map(|&i| object.features.columns[f][i]));
+            if dropped.contains(&names[f]) {
+                column.extend(std::iter::repeat_n(0.0, rows.len()));
+            } else {
+                column.extend(rows.iter().map(|&i| object.features.columns[f][i]));
+            }
         }
         labels.extend(rows.iter().map(|&i| object.labels[i]));
+        row_dataset.extend(std::iter::repeat_n(object.dataset.as_str(), rows.len()));
         records.push(ObjectRecord {
             name: object.name.clone(),
+            dataset: object.dataset.clone(),
             sha256: object.sha256.clone(),
             points: object.labels.len(),
             positives: object.labels.iter().filter(|&&b| b).count(),
             rows_used: rows.len(),
         });
     }
-    let weights = vec![1.0; labels.len()];
+    let datasets = balance_datasets(&records, options)?;
+    let weights: Vec<f64> = row_dataset
+        .iter()
+        .map(|d| {
+            datasets
+                .iter()
+                .find(|r| r.name == *d)
+                .map_or(1.0, |r| r.row_weight)
+        })
+        .collect();
     let trees = boosted_trees::train(&columns, &labels, &weights, &options.params)?;
     Ok(GazeModel {
         format: MODEL_FORMAT.to_string(),
@@ -191,12 +262,55 @@ pub fn train_model(
         features: names,
         training: TrainingRecord {
             objects: records,
+            datasets,
             rows_per_object: options.rows_per_object,
             seed: options.seed,
             protocol: protocol_name.to_string(),
         },
         trees,
     })
+}
+
+/// Each dataset's row weight: `N w_d / (W n_d)` for N rows in all, n_d in dataset d, w_d its
+/// weight and W the sum of the weights, so the total weights stand as the `w_d` do and still
+/// sum to N (one dataset: exactly 1 per row, as before datasets were balanced).
+fn balance_datasets(
+    records: &[ObjectRecord],
+    options: &TrainOptions,
+) -> Result<Vec<DatasetRecord>, String> {
+    let mut out: Vec<DatasetRecord> = Vec::new();
+    for r in records {
+        match out.iter_mut().find(|d| d.name == r.dataset) {
+            Some(d) => {
+                d.objects += 1;
+                d.rows += r.rows_used;
+            }
+            None => out.push(DatasetRecord {
+                name: r.dataset.clone(),
+                objects: 1,
+                rows: r.rows_used,
+                weight: options.weight_of(&r.dataset),
+                row_weight: 0.0,
+            }),
+        }
+    }
+    for (name, w) in &options.dataset_weights {
+        if !(w.is_finite() && *w > 0.0) {
+            return Err(format!(
+                "dataset `{name}`: weight {w} is not a positive number"
+            ));
+        }
+    }
+    let all_rows: usize = out.iter().map(|d| d.rows).sum();
+    let all_weight: f64 = out.iter().map(|d| d.weight).sum();
+    for d in &mut out {
+        d.row_weight = if d.rows == 0 {
+            0.0
+        } else {
+            all_rows as f64 * d.weight / all_weight / d.rows as f64
+        };
+    }
+    Ok(out)
 }
 
 /// The rows of an object used for training: a seeded draw that depends only on the seed and
@@ -282,5 +396,58 @@ impl GazeModel {
             .collect();
         v.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
         v
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn record(name: &str, dataset: &str, rows: usize) -> ObjectRecord {
+        ObjectRecord {
+            name: name.into(),
+            dataset: dataset.into(),
+            sha256: String::new(),
+            points: rows,
+            positives: 1,
+            rows_used: rows,
+        }
+    }
+
+    #[test]
+    fn one_dataset_keeps_unit_weights() {
+        let records = [record("a", "vr", 4000), record("b", "vr", 1234)];
+        let d = balance_datasets(&records, &TrainOptions::default()).unwrap();
+        assert_eq!(d.len(), 1);
+        assert_eq!(d[0].row_weight, 1.0);
+    }
+
+    #[test]
+    fn datasets_weigh_as_their_weights_say_whatever_their_size() {
+        // 44 objects of one dataset against 2 of a lab's own.
+        let mut records: Vec<ObjectRecord> = (0..44)
+            .map(|i| record(&format!("o{i}"), "vr", 4000))
+            .collect();
+        records.push(record("p1", "lab", 4000));
+        records.push(record("p2", "lab", 3000));
+        let total = |d: &[DatasetRecord], name: &str| {
+            let r = d.iter().find(|r| r.name == name).unwrap();
+            r.rows as f64 * r.row_weight
+        };
+        let d = balance_datasets(&records, &TrainOptions::default()).unwrap();
+        assert!((total(&d, "vr") - total(&d, "lab")).abs() < 1e-6);
+        let all_rows: usize = records.iter().map(|r| r.rows_used).sum();
+        assert!((total(&d, "vr") + total(&d, "lab") - all_rows as f64).abs() < 1e-6);
+        let options = TrainOptions {
+            dataset_weights: vec![("lab".into(), 3.0)],
+            ..TrainOptions::default()
+        };
+        let d = balance_datasets(&records, &options).unwrap();
+        assert!((total(&d, "lab") / total(&d, "vr") - 3.0).abs() < 1e-9);
+        let bad = TrainOptions {
+            dataset_weights: vec![("lab".into(), -1.0)],
+            ..TrainOptions::default()
+        };
+        assert!(balance_datasets(&records, &bad).is_err());
     }
 }

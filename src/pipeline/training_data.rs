@@ -48,6 +48,20 @@ impl TrainingSource {
         }
     }
 
+    /// The dataset (or study output folder) it belongs to, by folder name: what training
+    /// balances and `train --weight NAME=W` names.
+    pub fn dataset(&self) -> String {
+        let folder = match self {
+            TrainingSource::Points(p) => p.parent().and_then(Path::parent),
+            TrainingSource::MeshTruth { mesh, .. } => mesh.parent().and_then(Path::parent),
+            TrainingSource::StudyMesh { density, .. } => density
+                .parent()
+                .and_then(Path::parent)
+                .and_then(Path::parent),
+        };
+        folder_name(folder)
+    }
+
     /// The files it comes from, for messages.
     pub fn describe(&self) -> String {
         match self {
@@ -71,14 +85,17 @@ impl TrainingSource {
                 .map_err(PipelineError::io(p))
         };
         match self {
-            TrainingSource::Points(p) => training_object(p, protocol).map_err(PipelineError::stage),
+            TrainingSource::Points(p) => {
+                training_object(p, &self.dataset(), protocol).map_err(PipelineError::stage)
+            }
             TrainingSource::MeshTruth { name, mesh, truth } => {
                 let (m, _) = load_mesh(mesh).map_err(PipelineError::stage)?;
                 let t = load_ground_truth_on(truth, &m, top_fraction, TruthLayout::Auto)
                     .map_err(PipelineError::stage)?;
                 let values = vertex_values(t, m.positions.len());
                 let sha = sha256_hex(format!("{} {}", hash(mesh)?, hash(truth)?).as_bytes());
-                training_object_from_map(name, sha, &m, &values, top_fraction, protocol)
+                let dataset = self.dataset();
+                training_object_from_map(name, &dataset, sha, &m, &values, top_fraction, protocol)
                     .map_err(PipelineError::stage)
             }
             TrainingSource::StudyMesh {
@@ -90,11 +107,64 @@ impl TrainingSource {
                 let values = read_density(density, stim.mesh.positions.len())
                     .map_err(PipelineError::stage)?;
                 let sha = sha256_hex(format!("{} {}", stim.mesh_sha256, hash(density)?).as_bytes());
-                training_object_from_map(name, sha, &stim.mesh, &values, top_fraction, protocol)
-                    .map_err(PipelineError::stage)
+                training_object_from_map(
+                    name,
+                    &self.dataset(),
+                    sha,
+                    &stim.mesh,
+                    &values,
+                    top_fraction,
+                    protocol,
+                )
+                .map_err(PipelineError::stage)
             }
         }
     }
+}
+
+/// A folder's last component; `.` and `..` are resolved first so `--dataset .` is named after
+/// the folder it means (only `/` stays unnamed: `dataset`).
+fn folder_name(folder: Option<&Path>) -> String {
+    let Some(folder) = folder else {
+        return "dataset".to_string();
+    };
+    let resolved;
+    let folder = if folder.file_name().is_none() || folder.ends_with("..") {
+        let here = if folder.as_os_str().is_empty() {
+            Path::new(".")
+        } else {
+            folder
+        };
+        resolved = std::fs::canonicalize(here).unwrap_or_else(|_| folder.to_path_buf());
+        resolved.as_path()
+    } else {
+        folder
+    };
+    folder.file_name().map_or_else(
+        || "dataset".to_string(),
+        |n| n.to_string_lossy().to_string(),
+    )
+}
+
+/// The name training gives each folder (its last component), refusing two folders of the
+/// same name: their weights could not be told apart.
+pub fn dataset_names(
+    datasets: &[PathBuf],
+    studies: &[PathBuf],
+) -> Result<Vec<String>, PipelineError> {
+    let mut names: Vec<(String, &PathBuf)> = Vec::new();
+    for d in datasets.iter().chain(studies) {
+        let name = folder_name(Some(d.as_path()));
+        if let Some((_, other)) = names.iter().find(|(n, _)| *n == name) {
+            return Err(PipelineError::Invalid(format!(
+                "{} and {} are both named `{name}`; training tells datasets apart by folder name, so rename or link one",
+                other.display(),
+                d.display()
+            )));
+        }
+        names.push((name, d));
+    }
+    Ok(names.into_iter().map(|(n, _)| n).collect())
 }
 
 /// One value per vertex: the map itself, or a fixation set's count per vertex.
@@ -258,6 +328,7 @@ pub fn evaluation_meshes(datasets: &[PathBuf]) -> Result<Vec<EvaluationMesh>, Pi
             };
             out.push(EvaluationMesh {
                 name,
+                dataset: folder_name(Some(d.as_path())),
                 mesh,
                 values: map.values,
                 positive: map.positive,

@@ -1,14 +1,16 @@
 //! Timing of the pipeline's costly steps, as `meshgaze bench` reports them: SMS and its
 //! competitors at the paper's settings against the paper's Table 3, scoring a mesh the way a
-//! study does, the stimulus render, and the SMI parser. Each measurement is a function on
+//! study does, the gaze model's feature groups, the stimulus render, and the SMI parser. Each measurement is a function on
 //! plain data; [`run_cell_in_child`] runs one in a process of its own so its peak memory is
 //! its own.
+mod gaze_features_cell;
 mod memory;
 mod scoring_cell;
 mod smi_parse;
 mod stimulus_cell;
 mod table3;
 
+pub use gaze_features_cell::{gaze_features_cell, GazeFeaturesCell};
 pub use memory::peak_rss_mb;
 pub use scoring_cell::{scoring_cell, ScoringCell};
 pub use smi_parse::{eyelink_parse_speed, smi_parse_speed, table_parse_speeds, ParseSpeed};
