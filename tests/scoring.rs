@@ -285,3 +285,80 @@ fn score_reads_a_per_face_truth_as_its_area_weighted_vertex_map() {
     assert!(e.contains("per_face.csv") && e.contains("1889"), "{e}");
     let _ = load_ground_truth(&face_csv, mesh.triangles.len(), 0.05).unwrap();
 }
+
+/// `train --dataset` reads a per-face truth as `score` does: the model trained on a mesh with
+/// a per-face map has the same trees as one trained on the vertex map it is carried to, and
+/// `--truth-layout vertex` refuses the per-face file, naming it.
+#[test]
+fn train_reads_a_per_face_truth_as_its_area_weighted_vertex_map() {
+    use meshgaze::truth::face_values_to_vertices;
+    let mesh = common::bunny_res3();
+    let mesh_path = common::repo_root().join("stimuli/meshes/bun_zipper_res3.ply");
+    let faces: Vec<f64> = mesh
+        .triangles
+        .iter()
+        .map(|t| t.iter().map(|&v| mesh.positions[v as usize].y).sum::<f64>() / 3.0)
+        .collect();
+    let carried = face_values_to_vertices(&mesh, &faces);
+    let root = std::env::temp_dir().join(format!("meshgaze-train-face-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    let dataset = |name: &str, header: &str, values: &[f64]| {
+        let d = root.join(name);
+        std::fs::create_dir_all(d.join("meshes")).unwrap();
+        std::fs::create_dir_all(d.join("truth")).unwrap();
+        std::fs::copy(&mesh_path, d.join("meshes/bun_zipper_res3.ply")).unwrap();
+        let body: String = values
+            .iter()
+            .enumerate()
+            .map(|(i, v)| format!("{i},{v}\n"))
+            .collect();
+        std::fs::write(
+            d.join("truth/bun_zipper_res3_map.csv"),
+            format!("{header}\n{body}"),
+        )
+        .unwrap();
+        d
+    };
+    let face_ds = dataset("face", "face,value", &faces);
+    let vertex_ds = dataset("vertex", "vertex,value", &carried);
+    let train = |d: &Path, layout: &str| {
+        let out = d.join("model.json");
+        let run = std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+            .args([
+                "train",
+                "--quiet",
+                "--rounds",
+                "5",
+                "--truth-layout",
+                layout,
+                "--dataset",
+            ])
+            .arg(d)
+            .arg("-o")
+            .arg(&out)
+            .output()
+            .unwrap();
+        (run, out)
+    };
+    let (refused, _) = train(&face_ds, "vertex");
+    assert!(!refused.status.success());
+    let e = String::from_utf8_lossy(&refused.stderr);
+    assert!(e.contains("bun_zipper_res3_map.csv"), "{e}");
+    let model = |d: &Path, layout: &str| {
+        let (run, out) = train(d, layout);
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        meshgaze::gaze_model::GazeModel::load(&out).unwrap()
+    };
+    let from_faces = model(&face_ds, "face");
+    let from_vertices = model(&vertex_ds, "auto");
+    assert_eq!(from_faces.trees, from_vertices.trees);
+    assert_eq!(
+        from_faces.training.objects[0].positives,
+        from_vertices.training.objects[0].positives
+    );
+    let _ = std::fs::remove_dir_all(&root);
+}

@@ -15,6 +15,7 @@ use meshgaze::protocol::Protocol;
 use meshgaze::report::cross_validation_report::{
     cv_markdown, held_out_markdown, write_cv_csv, write_cv_figures, write_held_out_csv,
 };
+use meshgaze::truth::TruthLayout;
 
 use super::progress_bar::Bars;
 
@@ -68,6 +69,11 @@ pub struct TrainArgs {
     /// trains, its top `--top-fraction` vertices by fixation density as positives.
     #[arg(long, num_args = 1..)]
     pub study: Vec<PathBuf>,
+    /// Whether a dataset's truth maps give one value per vertex or per face. auto: per face
+    /// when its rows number the mesh's triangles (and not its vertices); a per-face map is
+    /// carried to vertices by the area-weighted mean of each vertex's faces (as `score`).
+    #[arg(long, value_enum, default_value_t = TruthLayout::Auto)]
+    pub truth_layout: TruthLayout,
     /// Fraction of a mesh's vertices taken as positives when its truth is a map.
     #[arg(long, default_value_t = 0.05)]
     pub top_fraction: f64,
@@ -129,7 +135,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let objects: Vec<TrainingObject> = sources
         .par_iter()
         .map(|s| {
-            let o = s.object(&protocol, args.top_fraction);
+            let o = s.object(&protocol, args.top_fraction, args.truth_layout);
             bars.advance(1);
             o
         })
@@ -167,7 +173,7 @@ fn run_cross_validation(
     protocol: &Protocol,
     bars: &Bars,
 ) -> Result<()> {
-    let meshes = evaluation_meshes(&args.dataset)?;
+    let meshes = evaluation_meshes(&args.dataset, args.truth_layout)?;
     let plan = CvPlan {
         categories: match &args.categories {
             Some(p) => Some(Categories::read(p).map_err(anyhow::Error::msg)?),

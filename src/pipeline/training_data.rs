@@ -73,11 +73,13 @@ impl TrainingSource {
         }
     }
 
-    /// Its features and labels: positives are the top `top_fraction` of its map.
+    /// Its features and labels: positives are the top `top_fraction` of its map; `layout`
+    /// says whether a dataset's truth map is per vertex or per face (carried to vertices).
     pub fn object(
         &self,
         protocol: &Protocol,
         top_fraction: f64,
+        layout: TruthLayout,
     ) -> Result<TrainingObject, PipelineError> {
         let hash = |p: &Path| {
             InputFile::hash(p)
@@ -90,7 +92,7 @@ impl TrainingSource {
             }
             TrainingSource::MeshTruth { name, mesh, truth } => {
                 let (m, _) = load_mesh(mesh).map_err(PipelineError::stage)?;
-                let t = load_ground_truth_on(truth, &m, top_fraction, TruthLayout::Auto)
+                let t = load_ground_truth_on(truth, &m, top_fraction, layout)
                     .map_err(PipelineError::stage)?;
                 let values = vertex_values(t, m.positions.len());
                 let sha = sha256_hex(format!("{} {}", hash(mesh)?, hash(truth)?).as_bytes());
@@ -311,14 +313,17 @@ pub fn check_unique_names(
 }
 
 /// The meshes with per-vertex truth of every dataset that has `meshes/` and `truth/`: what
-/// `train --cv` holds out one at a time.
-pub fn evaluation_meshes(datasets: &[PathBuf]) -> Result<Vec<EvaluationMesh>, PipelineError> {
+/// `train --cv` holds out one at a time, their truth read with `layout`.
+pub fn evaluation_meshes(
+    datasets: &[PathBuf],
+    layout: TruthLayout,
+) -> Result<Vec<EvaluationMesh>, PipelineError> {
     let mut out = Vec::new();
     for d in datasets.iter().filter(|d| d.join("meshes").is_dir()) {
         let pairs = dataset_pairs(d).map_err(|e| PipelineError::stage(format!("{e:#}")))?;
         for (name, mesh_path, truth_path) in pairs {
             let (mesh, _) = load_mesh(&mesh_path).map_err(PipelineError::stage)?;
-            let truth = load_ground_truth_on(&truth_path, &mesh, 0.05, TruthLayout::Auto)
+            let truth = load_ground_truth_on(&truth_path, &mesh, 0.05, layout)
                 .map_err(PipelineError::stage)?;
             let GroundTruth::VertexMap(map) = truth else {
                 return Err(PipelineError::input(
