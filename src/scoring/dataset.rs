@@ -3,16 +3,41 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
 use serde::Serialize;
 
 use super::{quantile, MethodSummary, ScoreRow};
 use crate::mesh::{LoadReport, MeshFormat};
 
-/// A mesh's name: its file name up to the first dot (`bunny.ply.gz` → `bunny`).
-pub fn mesh_stem(path: &Path) -> String {
-    let file = path.file_name().unwrap_or_default().to_string_lossy();
-    file.split('.').next().unwrap_or("mesh").to_string()
+/// A mesh's name: its file name up to the first dot (`bunny.ply.gz` → `bunny`), the rule a
+/// study and the viewer name meshes by.
+pub use crate::file_bytes::stem_of as mesh_stem;
+
+/// Why a dataset folder's meshes and truths could not be paired.
+#[derive(Debug, thiserror::Error)]
+pub enum DatasetError {
+    /// `meshes/` or `truth/` could not be listed.
+    #[error("cannot read {}: {cause}", folder.display())]
+    Unreadable {
+        folder: PathBuf,
+        cause: std::io::Error,
+    },
+    /// A mesh has no truth file of its name.
+    #[error("{}: no truth file named {name}_* or {name}.* in {}", mesh.display(), truth_dir.display())]
+    NoTruth {
+        mesh: PathBuf,
+        name: String,
+        truth_dir: PathBuf,
+    },
+    /// A mesh's name matches more than one truth file.
+    #[error("{}: several truth files match {name}: {matches:?}", mesh.display())]
+    SeveralTruths {
+        mesh: PathBuf,
+        name: String,
+        matches: Vec<PathBuf>,
+    },
+    /// `meshes/` holds no mesh file.
+    #[error("{}: no meshes found", folder.display())]
+    NoMeshes { folder: PathBuf },
 }
 
 /// One mesh's scores, as score.json lists them.
@@ -32,12 +57,15 @@ pub struct MeshEntry {
 }
 
 /// Pairs DIR/meshes/NAME.* with DIR/truth/NAME[_.]*.
-pub fn dataset_pairs(dir: &Path) -> Result<Vec<(String, PathBuf, PathBuf)>> {
+pub fn dataset_pairs(dir: &Path) -> Result<Vec<(String, PathBuf, PathBuf)>, DatasetError> {
     let meshes_dir = dir.join("meshes");
     let truth_dir = dir.join("truth");
-    let list = |d: &Path| -> Result<Vec<PathBuf>> {
+    let list = |d: &Path| -> Result<Vec<PathBuf>, DatasetError> {
         let mut v: Vec<PathBuf> = std::fs::read_dir(d)
-            .with_context(|| format!("cannot read {}", d.display()))?
+            .map_err(|cause| DatasetError::Unreadable {
+                folder: d.to_path_buf(),
+                cause,
+            })?
             .filter_map(|e| e.ok().map(|e| e.path()))
             .filter(|p| p.is_file())
             .collect();
@@ -60,19 +88,24 @@ pub fn dataset_pairs(dir: &Path) -> Result<Vec<(String, PathBuf, PathBuf)>> {
             .collect();
         match matches.as_slice() {
             [t] => pairs.push((name, mesh.clone(), (*t).clone())),
-            [] => bail!(
-                "{}: no truth file named {name}_* or {name}.* in {}",
-                mesh.display(),
-                truth_dir.display()
-            ),
-            _ => bail!(
-                "{}: several truth files match {name}: {matches:?}",
-                mesh.display()
-            ),
+            [] => {
+                return Err(DatasetError::NoTruth {
+                    mesh: mesh.clone(),
+                    name,
+                    truth_dir,
+                })
+            }
+            _ => {
+                return Err(DatasetError::SeveralTruths {
+                    mesh: mesh.clone(),
+                    matches: matches.into_iter().cloned().collect(),
+                    name,
+                })
+            }
         }
     }
     if pairs.is_empty() {
-        bail!("{}: no meshes found", meshes_dir.display());
+        return Err(DatasetError::NoMeshes { folder: meshes_dir });
     }
     Ok(pairs)
 }
