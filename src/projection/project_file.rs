@@ -4,7 +4,6 @@
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
 use serde::Serialize;
 
 use super::self_check::{self_check, SelfCheck};
@@ -20,21 +19,55 @@ use crate::protocol::DuringMove;
 use crate::provenance::{InputFile, Provenance};
 use crate::stimulus::load::LoadedStimulus;
 
+/// Why fixations could not be projected, or the projection not written.
+#[derive(Debug, thiserror::Error)]
+pub enum ProjectError {
+    /// An option or the fixations do not allow it; the message says which and why.
+    #[error("{0}")]
+    Invalid(String),
+    /// A fixation or target table could not be used (its reader names file, line, column).
+    #[error("{0}")]
+    Table(String),
+    /// A file could not be read, created or written.
+    #[error("{action} {}: {cause}", path.display())]
+    Io {
+        action: &'static str,
+        path: PathBuf,
+        cause: std::io::Error,
+    },
+    /// A CSV output could not be written.
+    #[error("cannot write {}: {cause}", path.display())]
+    Csv { path: PathBuf, cause: csv::Error },
+}
+
+type Result<T> = std::result::Result<T, ProjectError>;
+
+fn invalid(message: impl Into<String>) -> ProjectError {
+    ProjectError::Invalid(message.into())
+}
+
+/// The SHA-256 of an input, or which input could not be read.
+fn hash(path: &Path) -> Result<InputFile> {
+    InputFile::hash(path).map_err(|cause| ProjectError::Io {
+        action: "cannot read",
+        path: path.to_path_buf(),
+        cause,
+    })
+}
+
 /// `WIDTHxHEIGHT` in pixels.
 pub fn parse_screen(s: &str) -> Result<(f64, f64)> {
     let (w, h) = s
         .split_once(['x', 'X'])
-        .context("--screen: expected WIDTHxHEIGHT, e.g. 1920x1080")?;
-    let (w, h): (f64, f64) = (
-        w.trim()
-            .parse()
-            .context("--screen: width is not a number")?,
-        h.trim()
-            .parse()
-            .context("--screen: height is not a number")?,
-    );
+        .ok_or_else(|| invalid("--screen: expected WIDTHxHEIGHT, e.g. 1920x1080"))?;
+    let number = |v: &str, what: &str| {
+        v.trim()
+            .parse::<f64>()
+            .map_err(|e| invalid(format!("--screen: {what} is not a number: {e}")))
+    };
+    let (w, h) = (number(w, "width")?, number(h, "height")?);
     if !(w > 0.0 && h > 0.0) {
-        bail!("--screen: width and height must be positive");
+        return Err(invalid("--screen: width and height must be positive"));
     }
     Ok((w, h))
 }
@@ -50,10 +83,10 @@ pub fn choose_stimulus(
     names.dedup();
     if let Some(e) = explicit {
         if !names.contains(&e) {
-            bail!(
+            return Err(invalid(format!(
                 "no fixation has stimulus `{e}`; the files have: {}",
                 names.join(", ")
-            );
+            )));
         }
         return Ok(e.to_string());
     }
@@ -80,10 +113,10 @@ pub fn choose_stimulus(
     if with_onset.len() == 1 {
         return Ok(with_onset[0].to_string());
     }
-    bail!(
+    Err(invalid(format!(
         "cannot tell which stimulus shows this mesh ({mesh_stem}); pass --stimulus-name, one of: {}",
         names.join(", ")
-    )
+    )))
 }
 
 /// The rows of stimulus `name` as screen fixations, in subject then time order, numbered per
@@ -101,10 +134,10 @@ pub fn screen_fixations(
         let offset_us = match (r.onset_offset_us, onset_us) {
             (_, Some(onset)) => r.start_us - onset,
             (Some(o), None) => o,
-            (None, None) => bail!(
+            (None, None) => return Err(invalid(format!(
                 "subject {}: fixations of `{name}` have no onset time (no stimulus message in the recording); pass --onset-us with the tracker time of the video's first frame",
                 r.subject
-            ),
+            ))),
         };
         let k = index.entry(r.subject.as_str()).or_insert(0);
         fixations.push(ScreenFixation {
@@ -172,21 +205,18 @@ pub fn project_files(
     options: &ProjectOptions,
     progress: &dyn Progress,
 ) -> Result<ProjectionRun> {
-    let mut inputs = vec![
-        InputFile::hash(&stim.manifest_path)?,
-        InputFile::hash(&stim.mesh_path)?,
-    ];
+    let mut inputs = vec![hash(&stim.manifest_path)?, hash(&stim.mesh_path)?];
     let mut rows = Vec::new();
     for f in fixation_files {
-        rows.extend(read_fixations_csv(f).map_err(anyhow::Error::msg)?);
-        inputs.push(InputFile::hash(f)?);
+        rows.extend(read_fixations_csv(f).map_err(ProjectError::Table)?);
+        inputs.push(hash(f)?);
     }
     let name = choose_stimulus(&rows, options.stimulus_name.as_deref(), &stim.mesh_stem())?;
     let others = rows.iter().filter(|r| r.stimulus != name).count();
     let fixations = screen_fixations(&rows, &name, options.onset_us)?;
     let mut run = project_screen_fixations(stim, &fixations, options, progress)?;
     if let Some(t) = &options.targets {
-        inputs.push(InputFile::hash(t)?);
+        inputs.push(hash(t)?);
     }
     run.sidecar.provenance = Provenance::new(inputs);
     run.sidecar.stimulus_name = name;
@@ -217,12 +247,12 @@ pub fn project_screen_fixations(
     let ppd = protocol.display.pixels_per_degree() * sw / protocol.display.width_px as f64;
     if let Some(d) = options.snap_deg {
         if !(d > 0.0 && d <= 5.0) {
-            bail!("--snap-deg must be in (0, 5] degrees");
+            return Err(invalid("--snap-deg must be in (0, 5] degrees"));
         }
     }
     if let Some(c) = options.cone_deg {
         if !(c > 0.0 && c <= 10.0) {
-            bail!("--cone-deg must be in (0, 10] degrees");
+            return Err(invalid("--cone-deg must be in (0, 10] degrees"));
         }
     }
     let params = ProjectionParams {
@@ -252,7 +282,7 @@ pub fn project_screen_fixations(
     let rows: Vec<ProjectedRow> = projected.iter().map(ProjectedRow::from).collect();
     let round_trip = match &options.targets {
         Some(t) => {
-            let targets = read_targets_csv(t).map_err(anyhow::Error::msg)?;
+            let targets = read_targets_csv(t).map_err(ProjectError::Table)?;
             Some(round_trip(&stim.mesh, &stim.plan, ppd, &targets, &rows))
         }
         None => None,
@@ -299,21 +329,34 @@ pub fn project_screen_fixations(
 
 /// Writes projected.csv, cone.csv (with a cone) and project.json into `out`.
 pub fn write_projection(out: &Path, run: &ProjectionRun) -> Result<()> {
-    crate::file_bytes::create_output_dir(out)?;
+    let io = |action: &'static str, path: &Path| {
+        let path = path.to_path_buf();
+        move |cause| ProjectError::Io {
+            action,
+            path,
+            cause,
+        }
+    };
+    crate::file_bytes::create_output_dir(out).map_err(|cause| ProjectError::Io {
+        action: "cannot create",
+        path: out.to_path_buf(),
+        cause,
+    })?;
     let pp = out.join("projected.csv");
     write_projected_csv(
-        std::io::BufWriter::new(
-            std::fs::File::create(&pp)
-                .with_context(|| format!("cannot create {}", pp.display()))?,
-        ),
+        std::io::BufWriter::new(std::fs::File::create(&pp).map_err(io("cannot create", &pp))?),
         &run.rows,
     )
-    .map_err(anyhow::Error::msg)?;
+    .map_err(|e| ProjectError::Table(format!("cannot write {}: {e}", pp.display())))?;
     if run.sidecar.parameters.cone.is_some() {
         let cp = out.join("cone.csv");
-        let mut w = csv::Writer::from_path(&cp)
-            .with_context(|| format!("cannot create {}", cp.display()))?;
-        w.write_record(["subject", "fixation", "vertex", "weight"])?;
+        let csv_error = |cause| ProjectError::Csv {
+            path: cp.clone(),
+            cause,
+        };
+        let mut w = csv::Writer::from_path(&cp).map_err(csv_error)?;
+        w.write_record(["subject", "fixation", "vertex", "weight"])
+            .map_err(csv_error)?;
         for p in &run.projected {
             for (v, wt) in &p.footprint {
                 w.write_record([
@@ -321,13 +364,43 @@ pub fn write_projection(out: &Path, run: &ProjectionRun) -> Result<()> {
                     p.index.to_string(),
                     v.to_string(),
                     format!("{wt}"),
-                ])?;
+                ])
+                .map_err(csv_error)?;
             }
         }
-        w.flush()?;
+        w.flush().map_err(io("cannot write", &cp))?;
     }
     let jp = out.join("project.json");
-    std::fs::write(&jp, serde_json::to_string_pretty(&run.sidecar)? + "\n")
-        .with_context(|| format!("cannot write {}", jp.display()))?;
+    let json = serde_json::to_string_pretty(&run.sidecar).expect("the sidecar serializes") + "\n";
+    std::fs::write(&jp, json).map_err(io("cannot write", &jp))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn screen_sizes_are_read_and_bad_ones_say_why() {
+        assert_eq!(parse_screen("1920x1080").unwrap(), (1920.0, 1080.0));
+        assert_eq!(parse_screen(" 1680 X 1050 ").unwrap(), (1680.0, 1050.0));
+        let e = parse_screen("1920by1080").unwrap_err().to_string();
+        assert_eq!(e, "--screen: expected WIDTHxHEIGHT, e.g. 1920x1080");
+        let e = parse_screen("wide x 1080").unwrap_err().to_string();
+        assert!(e.starts_with("--screen: width is not a number: "), "{e}");
+        let e = parse_screen("0x1080").unwrap_err().to_string();
+        assert_eq!(e, "--screen: width and height must be positive");
+    }
+
+    #[test]
+    fn an_unreadable_input_is_named() {
+        let missing = Path::new("/no/such/dir/fixations.csv");
+        let e = hash(missing).unwrap_err();
+        assert!(matches!(e, ProjectError::Io { .. }));
+        assert!(
+            e.to_string()
+                .starts_with("cannot read /no/such/dir/fixations.csv: "),
+            "{e}"
+        );
+    }
 }
