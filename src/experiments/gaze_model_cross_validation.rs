@@ -14,7 +14,7 @@ use std::path::Path;
 use rayon::prelude::*;
 
 use crate::gaze_model::features::{
-    feature_group, point_features, ranks, FeatureMatrix, FEATURE_GROUPS,
+    feature_group, feature_names, point_features, ranks, FeatureMatrix, FEATURE_GROUPS,
 };
 use crate::gaze_model::surface_points::SurfacePoints;
 use crate::gaze_model::{train_model_without, TrainOptions, TrainingObject};
@@ -252,11 +252,9 @@ pub fn cross_validate(
             let dropped: Vec<String> = if *without == "none" {
                 Vec::new()
             } else {
-                features[0]
-                    .names
-                    .iter()
+                feature_names()
+                    .into_iter()
                     .filter(|n| feature_group(n) == *without)
-                    .cloned()
                     .collect()
             };
             let model = train_model_without(&training, options, &protocol.name, &dropped)?;
