@@ -5,7 +5,6 @@ use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
 use serde::Serialize;
 
 use super::{fixation_truth_from_rows, GroundTruth};
@@ -18,6 +17,48 @@ use crate::provenance::{InputFile, Provenance};
 use crate::scoring::surface_blur::{blur_on_mesh, BlurKernel};
 use crate::scoring::{blur_grid, peak_over_blur, score_mesh, ScoreParams, HUMAN};
 use crate::stimulus::load::LoadedStimulus;
+
+/// Why a truth could not be built or written (reading a truth file has `TruthError`).
+#[derive(Debug, thiserror::Error)]
+pub enum TruthBuildError {
+    /// The projections do not make one truth (another mesh, a subject twice, a vertex out of
+    /// range, a malformed cone.csv); the message names the file and why.
+    #[error("{0}")]
+    Invalid(String),
+    /// A projected.csv could not be read or truth.csv written (its reader names file, line,
+    /// column).
+    #[error("{0}")]
+    Table(String),
+    /// Blurring or scoring failed (the message says which parameter).
+    #[error("{0}")]
+    Stage(String),
+    /// A file could not be read, created or written.
+    #[error("{action} {}: {cause}", path.display())]
+    Io {
+        action: &'static str,
+        path: PathBuf,
+        cause: std::io::Error,
+    },
+}
+
+type Result<T> = std::result::Result<T, TruthBuildError>;
+
+/// An I/O error at `path` as a [`TruthBuildError`], for `map_err`.
+fn io_at<'a>(
+    action: &'static str,
+    path: &'a Path,
+) -> impl Fn(std::io::Error) -> TruthBuildError + 'a {
+    move |cause| TruthBuildError::Io {
+        action,
+        path: path.to_path_buf(),
+        cause,
+    }
+}
+
+/// The SHA-256 of an input, or which input could not be read.
+fn hash(path: &Path) -> Result<InputFile> {
+    InputFile::hash(path).map_err(io_at("cannot read", path))
+}
 
 /// How the truth is blurred and how far the human-ceiling sweep goes.
 #[derive(Debug, Clone, Copy)]
@@ -103,26 +144,26 @@ pub fn projected_file(p: &Path) -> PathBuf {
 /// that no subject's fixation appears twice (the same subject given twice).
 pub fn read_projections(stim: &LoadedStimulus, files: &[PathBuf]) -> Result<Projections> {
     let n = stim.mesh.positions.len();
-    let mut inputs = vec![InputFile::hash(&stim.manifest_path)?];
+    let mut inputs = vec![hash(&stim.manifest_path)?];
     let mut rows: Vec<ProjectedRow> = Vec::new();
     let mut cone: Option<Vec<f64>> = None;
     let mut warnings = Vec::new();
     for f in files {
         let dir = f.parent().unwrap_or(Path::new("."));
         check_projected_onto(stim, f, &dir.join("project.json"), &mut warnings)?;
-        let part = read_projected_csv(f).map_err(anyhow::Error::msg)?;
+        let part = read_projected_csv(f).map_err(TruthBuildError::Table)?;
         if let Some(bad) = part.iter().filter_map(|r| r.vertex).find(|&v| v >= n) {
-            bail!(
+            return Err(TruthBuildError::Invalid(format!(
                 "{}: vertex {bad} is out of range: the mesh has {n} vertices",
                 f.display()
-            );
+            )));
         }
         rows.extend(part);
-        inputs.push(InputFile::hash(f)?);
+        inputs.push(hash(f)?);
         let cone_file = dir.join("cone.csv");
         if cone_file.exists() {
             add_cone_csv(&cone_file, cone.get_or_insert_with(|| vec![0.0; n]))?;
-            inputs.push(InputFile::hash(&cone_file)?);
+            inputs.push(hash(&cone_file)?);
         }
     }
     rows.sort_by(|a, b| a.subject.cmp(&b.subject).then(a.fixation.cmp(&b.fixation)));
@@ -130,11 +171,10 @@ pub fn read_projections(stim: &LoadedStimulus, files: &[PathBuf]) -> Result<Proj
         .windows(2)
         .find(|w| w[0].subject == w[1].subject && w[0].fixation == w[1].fixation);
     if let Some(w) = dup {
-        bail!(
+        return Err(TruthBuildError::Invalid(format!(
             "subject {} fixation {} appears twice: the same subject was given twice",
-            w[0].subject,
-            w[0].fixation
-        );
+            w[0].subject, w[0].fixation
+        )));
     }
     Ok(Projections {
         rows,
@@ -152,14 +192,15 @@ fn check_projected_onto(
 ) -> Result<()> {
     match std::fs::read(sidecar) {
         Ok(b) => {
-            let v: serde_json::Value = serde_json::from_slice(&b)
-                .with_context(|| format!("{}: not JSON", sidecar.display()))?;
+            let v: serde_json::Value = serde_json::from_slice(&b).map_err(|e| {
+                TruthBuildError::Invalid(format!("{}: not JSON: {e}", sidecar.display()))
+            })?;
             if v.get("mesh_sha256").and_then(|x| x.as_str()) != Some(stim.mesh_sha256.as_str()) {
-                bail!(
+                return Err(TruthBuildError::Invalid(format!(
                     "{} was projected onto another mesh than {} (SHA-256 differs)",
                     projected.display(),
                     stim.mesh_path.display()
-                );
+                )));
             }
         }
         Err(_) => warnings.push(format!(
@@ -173,23 +214,24 @@ fn check_projected_onto(
 /// Adds the per-vertex weights of a cone.csv (`…,…,vertex,weight`) into `cone`.
 fn add_cone_csv(path: &Path, cone: &mut [f64]) -> Result<()> {
     let n = cone.len();
-    let mut r =
-        csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let bad = |what: String| TruthBuildError::Invalid(format!("{}{what}", path.display()));
+    let mut r = csv::Reader::from_path(path)
+        .map_err(|e| TruthBuildError::Invalid(format!("cannot read {}: {e}", path.display())))?;
     for (i, rec) in r.records().enumerate() {
         let line = i + 2;
-        let rec = rec.with_context(|| format!("{}:{line}", path.display()))?;
+        let rec = rec.map_err(|e| bad(format!(":{line}: {e}")))?;
         let v: usize = rec
             .get(2)
             .unwrap_or("")
             .parse()
-            .with_context(|| format!("{}:{line}: column `vertex`", path.display()))?;
+            .map_err(|e| bad(format!(":{line}: column `vertex`: {e}")))?;
         let w: f64 = rec
             .get(3)
             .unwrap_or("")
             .parse()
-            .with_context(|| format!("{}:{line}: column `weight`", path.display()))?;
+            .map_err(|e| bad(format!(":{line}: column `weight`: {e}")))?;
         if v >= n {
-            bail!("{}:{line}: vertex {v} out of range", path.display());
+            return Err(bad(format!(":{line}: vertex {v} out of range")));
         }
         cone[v] += w;
     }
@@ -218,19 +260,20 @@ pub fn build_truth(
     }
     let normalized = Normalization::of_mesh(mesh, BoundingBox::Oriented).normalized_mesh(mesh);
     let density = blur_on_mesh(&normalized, params.kernel, &[&counts], params.blur)
-        .map_err(anyhow::Error::msg)?
+        .map_err(TruthBuildError::Stage)?
         .remove(0);
     let expected = stim.protocol.fixations.keep_longest;
     let subjects = subject_truths(&rows, expected, &mut warnings);
     let truth = GroundTruth::Fixations(fixation_truth.clone());
     let score_params = ScoreParams {
-        blur_sigmas: blur_grid(params.blur_max, params.blur_step).map_err(anyhow::Error::msg)?,
+        blur_sigmas: blur_grid(params.blur_max, params.blur_step)
+            .map_err(TruthBuildError::Stage)?,
         kernel: params.kernel,
         borji_splits: 10,
         ..ScoreParams::default()
     };
-    let score =
-        score_mesh(mesh, &truth, &[], &score_params, None, progress).map_err(anyhow::Error::msg)?;
+    let score = score_mesh(mesh, &truth, &[], &score_params, None, progress)
+        .map_err(TruthBuildError::Stage)?;
     let human: Vec<(f64, &'static str, f64)> = score
         .rows
         .iter()
@@ -294,32 +337,31 @@ fn subject_truths(
 
 /// Writes truth.csv, density.csv, truth.ply, human.csv and truth.json into `out`.
 pub fn write_truth(out: &Path, stim: &LoadedStimulus, r: &TruthResult) -> Result<()> {
-    crate::file_bytes::create_output_dir(out)?;
+    crate::file_bytes::create_output_dir(out).map_err(io_at("cannot create", out))?;
     let tp = out.join("truth.csv");
     write_projected_csv(
-        std::io::BufWriter::new(
-            std::fs::File::create(&tp)
-                .with_context(|| format!("cannot create {}", tp.display()))?,
-        ),
+        std::io::BufWriter::new(std::fs::File::create(&tp).map_err(io_at("cannot create", &tp))?),
         &r.rows,
     )
-    .map_err(anyhow::Error::msg)?;
+    .map_err(|e| TruthBuildError::Table(format!("cannot write {}: {e}", tp.display())))?;
     let dp = out.join("density.csv");
-    let mut w = std::io::BufWriter::new(
-        std::fs::File::create(&dp).with_context(|| format!("cannot create {}", dp.display()))?,
-    );
+    let dp_err = io_at("cannot write", &dp);
+    let mut w =
+        std::io::BufWriter::new(std::fs::File::create(&dp).map_err(io_at("cannot create", &dp))?);
     writeln!(
         w,
         "vertex,fixations,density{}",
         if r.cone.is_some() { ",cone" } else { "" }
-    )?;
+    )
+    .map_err(&dp_err)?;
     for v in 0..r.counts.len() {
         match &r.cone {
-            Some(cone) => writeln!(w, "{v},{},{},{}", r.counts[v], r.density[v], cone[v])?,
-            None => writeln!(w, "{v},{},{}", r.counts[v], r.density[v])?,
+            Some(cone) => writeln!(w, "{v},{},{},{}", r.counts[v], r.density[v], cone[v]),
+            None => writeln!(w, "{v},{},{}", r.counts[v], r.density[v]),
         }
+        .map_err(&dp_err)?;
     }
-    w.flush()?;
+    w.flush().map_err(&dp_err)?;
     let max = r.density.iter().cloned().fold(0.0f64, f64::max);
     let quality: Vec<f64> = r
         .density
@@ -330,8 +372,9 @@ pub fn write_truth(out: &Path, stim: &LoadedStimulus, r: &TruthResult) -> Result
         GroundTruth::Fixations(f) => (f.fixations.len(), f.subjects.len()),
         GroundTruth::VertexMap(_) => (0, 0),
     };
+    let ply = out.join("truth.ply");
     write_ply_with_quality(
-        &out.join("truth.ply"),
+        &ply,
         &stim.mesh,
         &quality,
         &[
@@ -343,18 +386,54 @@ pub fn write_truth(out: &Path, stim: &LoadedStimulus, r: &TruthResult) -> Result
             format!("{fixations} fixations from {subjects} subjects"),
         ],
     )
-    .with_context(|| format!("cannot write {}", out.join("truth.ply").display()))?;
+    .map_err(io_at("cannot write", &ply))?;
     let hp = out.join("human.csv");
-    let mut w = std::io::BufWriter::new(
-        std::fs::File::create(&hp).with_context(|| format!("cannot create {}", hp.display()))?,
-    );
-    writeln!(w, "blur,metric,value")?;
+    let hp_err = io_at("cannot write", &hp);
+    let mut w =
+        std::io::BufWriter::new(std::fs::File::create(&hp).map_err(io_at("cannot create", &hp))?);
+    writeln!(w, "blur,metric,value").map_err(&hp_err)?;
     for (b, m, v) in &r.human {
-        writeln!(w, "{b},{m},{v}")?;
+        writeln!(w, "{b},{m},{v}").map_err(&hp_err)?;
     }
-    w.flush()?;
+    w.flush().map_err(&hp_err)?;
     let jp = out.join("truth.json");
-    std::fs::write(&jp, serde_json::to_string_pretty(&r.sidecar)? + "\n")
-        .with_context(|| format!("cannot write {}", jp.display()))?;
+    let json = serde_json::to_string_pretty(&r.sidecar).expect("the sidecar serializes") + "\n";
+    std::fs::write(&jp, json).map_err(io_at("cannot write", &jp))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_bad_cone_file_is_named_with_its_line() {
+        let dir = std::env::temp_dir().join(format!("meshgaze-cone-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("cone.csv");
+        let mut cone = vec![0.0; 3];
+        std::fs::write(
+            &path,
+            "subject,fixation,vertex,weight\ns1,0,1,0.5\ns1,1,2,0.25\n",
+        )
+        .unwrap();
+        add_cone_csv(&path, &mut cone).unwrap();
+        assert_eq!(cone, [0.0, 0.5, 0.25]);
+        std::fs::write(
+            &path,
+            "subject,fixation,vertex,weight\ns1,0,1,0.5\ns1,1,x,0.25\n",
+        )
+        .unwrap();
+        let e = add_cone_csv(&path, &mut cone).unwrap_err().to_string();
+        assert!(
+            e.starts_with(&format!("{}:3: column `vertex`: ", path.display())),
+            "{e}"
+        );
+        std::fs::write(&path, "subject,fixation,vertex,weight\ns1,0,9,0.5\n").unwrap();
+        let e = add_cone_csv(&path, &mut cone).unwrap_err().to_string();
+        assert_eq!(e, format!("{}:2: vertex 9 out of range", path.display()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let e = hash(&dir.join("projected.csv")).unwrap_err().to_string();
+        assert!(e.starts_with("cannot read "), "{e}");
+    }
 }

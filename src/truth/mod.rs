@@ -10,8 +10,8 @@ pub use density_file::read_density;
 pub use face_map::{face_values_to_vertices, load_ground_truth_on, TruthLayout};
 
 pub use build::{
-    build_truth, projected_file, read_projections, write_truth, Projections, TruthParams,
-    TruthResult,
+    build_truth, projected_file, read_projections, write_truth, Projections, TruthBuildError,
+    TruthParams, TruthResult,
 };
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
