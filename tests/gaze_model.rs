@@ -249,6 +249,18 @@ proptest! {
     }
 }
 
+/// Copies fixations-vr's mesh NAME and its truth into DIR/meshes and DIR/truth (the
+/// `score --dataset` layout), making the folders.
+fn copy_vr_mesh_and_truth(vr: &Path, dir: &Path, name: &str) {
+    for f in [
+        format!("meshes/{name}.obj.gz"),
+        format!("truth/{name}_objorder_time_bin.txt.gz"),
+    ] {
+        std::fs::create_dir_all(dir.join(&f).parent().unwrap()).unwrap();
+        std::fs::copy(vr.join(&f), dir.join(&f)).unwrap();
+    }
+}
+
 /// A dataset of meshes with per-vertex truth and no points files trains too: each mesh is
 /// one object, its top 5% vertices by truth value the positives.
 #[test]
@@ -258,16 +270,8 @@ fn meshes_with_truth_are_training_objects() {
     let vr = data.join("fixations-vr");
     let dir = std::env::temp_dir().join(format!("meshgaze-meshds-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(dir.join("meshes")).unwrap();
-    std::fs::create_dir_all(dir.join("truth")).unwrap();
     for n in ["cow", "hand"] {
-        std::fs::copy(
-            vr.join(format!("meshes/{n}.obj.gz")),
-            dir.join(format!("meshes/{n}.obj.gz")),
-        )
-        .unwrap();
-        let t = format!("truth/{n}_objorder_time_bin.txt.gz");
-        std::fs::copy(vr.join(&t), dir.join(&t)).unwrap();
+        copy_vr_mesh_and_truth(&vr, &dir, n);
     }
     let out = dir.join("model.json");
     let status = std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
@@ -308,20 +312,13 @@ fn two_datasets_are_balanced_weighted_and_held_out_whole() {
     let root = std::env::temp_dir().join(format!("meshgaze-two-ds-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&root);
     let (a, b) = (root.join("vr-part"), root.join("lab"));
-    for d in [&a, &b] {
-        std::fs::create_dir_all(d.join("meshes")).unwrap();
-        std::fs::create_dir_all(d.join("truth")).unwrap();
-    }
     std::fs::create_dir_all(a.join("points")).unwrap();
     for n in ["cat", "dog", "wolf", "lion"] {
         let f = format!("points/{n}.txt.gz");
         std::fs::copy(vr.join(&f), a.join(&f)).unwrap();
     }
     for (d, n) in [(&a, "horse"), (&b, "cow"), (&b, "hand")] {
-        let m = format!("meshes/{n}.obj.gz");
-        std::fs::copy(vr.join(&m), d.join(&m)).unwrap();
-        let t = format!("truth/{n}_objorder_time_bin.txt.gz");
-        std::fs::copy(vr.join(&t), d.join(&t)).unwrap();
+        copy_vr_mesh_and_truth(&vr, d, n);
     }
     let categories = root.join("families.tsv");
     std::fs::write(

@@ -222,6 +222,14 @@ proptest! {
     }
 }
 
+/// A smooth per-face value: the height of each face's centroid.
+fn face_centroid_heights(mesh: &meshgaze::mesh::Mesh) -> Vec<f64> {
+    mesh.triangles
+        .iter()
+        .map(|t| t.iter().map(|&v| mesh.positions[v as usize].y).sum::<f64>() / 3.0)
+        .collect()
+}
+
 /// A per-face truth map (one value per triangle, as published 3D gaze datasets give them) is
 /// told by its row count and scores exactly as the per-vertex map it is carried to
 /// (area-weighted mean of each vertex's faces); named per vertex, it is refused.
@@ -230,12 +238,7 @@ fn score_reads_a_per_face_truth_as_its_area_weighted_vertex_map() {
     use meshgaze::truth::face_values_to_vertices;
     let mesh = common::bunny_res3();
     let mesh_path = common::repo_root().join("stimuli/meshes/bun_zipper_res3.ply");
-    // A smooth per-face value: the height of each face's centroid.
-    let faces: Vec<f64> = mesh
-        .triangles
-        .iter()
-        .map(|t| t.iter().map(|&v| mesh.positions[v as usize].y).sum::<f64>() / 3.0)
-        .collect();
+    let faces = face_centroid_heights(&mesh);
     let carried = face_values_to_vertices(&mesh, &faces);
     let face_csv = write(
         "per_face.csv",
@@ -294,11 +297,7 @@ fn train_reads_a_per_face_truth_as_its_area_weighted_vertex_map() {
     use meshgaze::truth::face_values_to_vertices;
     let mesh = common::bunny_res3();
     let mesh_path = common::repo_root().join("stimuli/meshes/bun_zipper_res3.ply");
-    let faces: Vec<f64> = mesh
-        .triangles
-        .iter()
-        .map(|t| t.iter().map(|&v| mesh.positions[v as usize].y).sum::<f64>() / 3.0)
-        .collect();
+    let faces = face_centroid_heights(&mesh);
     let carried = face_values_to_vertices(&mesh, &faces);
     let root = std::env::temp_dir().join(format!("meshgaze-train-face-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&root);
