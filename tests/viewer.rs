@@ -149,7 +149,9 @@ fn text_that_would_close_the_script_is_escaped() {
         maps: vec![("short".into(), vec![0.0; 3])],
         ..input
     };
-    let e = viewer_page(&bad, &ViewerLimits::default()).unwrap_err();
+    let e = viewer_page(&bad, &ViewerLimits::default())
+        .unwrap_err()
+        .to_string();
     assert!(e.contains("short") && e.contains("1889"), "{e}");
 }
 

@@ -437,6 +437,7 @@ pub fn view_html(
                 max_triangles: max_triangles.max(1000),
             },
         )
+        .map_err(|e| e.to_string())
     })
     .map_err(fail)
 }

@@ -144,10 +144,11 @@ pub fn write_cv_figures(
     meshes: &[EvaluationMesh],
     maps: &[(String, Vec<f64>)],
     protocol: &Protocol,
-) -> Result<(), String> {
-    crate::file_bytes::create_output_dir(dir).map_err(|e| e.to_string())?;
+) -> Result<(), super::ReportError> {
+    use super::ReportError;
+    crate::file_bytes::create_output_dir(dir).map_err(ReportError::stage)?;
     for (m, (name, map)) in meshes.iter().zip(maps) {
-        let plan = CameraPlan::new(&m.mesh, protocol)?;
+        let plan = CameraPlan::new(&m.mesh, protocol).map_err(ReportError::Stage)?;
         let left = thumbnail(&render_map(&m.mesh, &plan, protocol, map, 0), 480);
         let right = thumbnail(&render_map(&m.mesh, &plan, protocol, &m.values, 0), 480);
         let mut both = image::RgbImage::new(left.width() + right.width(), left.height());
@@ -155,7 +156,7 @@ pub fn write_cv_figures(
         image::imageops::replace(&mut both, &right, left.width() as i64, 0);
         let path = dir.join(format!("{name}.png"));
         both.save(&path)
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+            .map_err(|e| ReportError::Chart(format!("cannot write {}: {e}", path.display())))?;
     }
     Ok(())
 }

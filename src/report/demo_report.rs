@@ -3,7 +3,9 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use anyhow::{Context, Result};
+use super::ReportError;
+
+type Result<T, E = ReportError> = std::result::Result<T, E>;
 use image::{Rgb, RgbImage};
 
 use super::html::{esc, file_data_uri, fmt3, png_data_uri, thumbnail};
@@ -95,7 +97,7 @@ pub fn write_report(path: &Path, r: &ReportInputs) -> Result<()> {
     html += &viewer_section(r)?;
     html += &scores_section(r)?;
     html += &provenance_section(r)?;
-    std::fs::write(path, html).with_context(|| format!("cannot write {}", path.display()))?;
+    std::fs::write(path, html).map_err(ReportError::io("write", path))?;
     Ok(())
 }
 
@@ -183,7 +185,7 @@ fn keyframes_section(r: &ReportInputs) -> Result<String> {
         .unwrap_or(Path::new("."))
         .join("frames");
     let mut keyframes: Vec<_> = std::fs::read_dir(&frames_dir)
-        .with_context(|| format!("cannot list {}", frames_dir.display()))?
+        .map_err(ReportError::io("list", &frames_dir))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| {
             p.file_name()
@@ -193,7 +195,7 @@ fn keyframes_section(r: &ReportInputs) -> Result<String> {
     keyframes.sort();
     for (v, kf) in keyframes.iter().enumerate() {
         let mut img = image::open(kf)
-            .with_context(|| format!("cannot read {}", kf.display()))?
+            .map_err(|e| ReportError::Stage(format!("cannot read {}: {e}", kf.display())))?
             .to_rgb8();
         let mut n = 0;
         for row in rows.iter().filter(|x| {
@@ -257,9 +259,9 @@ fn checks_section(r: &ReportInputs) -> Result<String> {
     let stim = r.stim;
     let project_json = r.out_dir.join("projection").join("project.json");
     let pj: serde_json::Value = serde_json::from_slice(
-        &std::fs::read(&project_json)
-            .with_context(|| format!("cannot read {}", project_json.display()))?,
-    )?;
+        &std::fs::read(&project_json).map_err(ReportError::io("read", &project_json))?,
+    )
+    .map_err(|e| ReportError::Stage(format!("{}: not JSON: {e}", project_json.display())))?;
     html += "<h2>Checks</h2><ul>";
     if let Some(c) = pj.get("self_check").filter(|c| !c.is_null()) {
         let _ = write!(
@@ -305,8 +307,7 @@ fn viewer_section(r: &ReportInputs) -> Result<String> {
             stimulus: Some((&r.stim.plan, r.stim.fps)),
         },
         &ViewerLimits::default(),
-    )
-    .map_err(anyhow::Error::msg)?;
+    )?;
     Ok(html)
 }
 

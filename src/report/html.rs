@@ -1,9 +1,10 @@
 //! Pieces shared by the HTML reports: escaping, inlined PNGs, number formatting.
 use std::path::Path;
 
-use anyhow::{Context, Result};
 use base64::Engine;
 use image::RgbImage;
+
+use super::ReportError;
 
 /// Escapes text for HTML content and attribute values.
 pub fn esc(s: &str) -> String {
@@ -13,20 +14,23 @@ pub fn esc(s: &str) -> String {
         .replace('"', "&quot;")
 }
 
-pub fn png_data_uri(img: &RgbImage) -> Result<String> {
+/// An image as a `data:` URI of its PNG bytes, so a page needs no other file.
+pub fn png_data_uri(img: &RgbImage) -> Result<String, ReportError> {
     let mut bytes = Vec::new();
     img.write_to(
         &mut std::io::Cursor::new(&mut bytes),
         image::ImageFormat::Png,
-    )?;
+    )
+    .map_err(ReportError::chart)?;
     Ok(format!(
         "data:image/png;base64,{}",
         base64::engine::general_purpose::STANDARD.encode(bytes)
     ))
 }
 
-pub fn file_data_uri(path: &Path) -> Result<String> {
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
+/// A PNG file on disk as a `data:` URI.
+pub fn file_data_uri(path: &Path) -> Result<String, ReportError> {
+    let bytes = std::fs::read(path).map_err(ReportError::io("read", path))?;
     Ok(format!(
         "data:image/png;base64,{}",
         base64::engine::general_purpose::STANDARD.encode(bytes)

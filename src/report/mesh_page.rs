@@ -3,12 +3,11 @@
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
-
 use super::html::{esc, fmt3, png_data_uri, thumbnail};
 use super::map_render::render_map;
 use super::score_plots::write_score_plots;
 use super::viewer::{viewer_fragment, ViewerInput, ViewerLimits};
+use super::ReportError;
 use crate::file_bytes::create_output_dir;
 use crate::projection::table::ProjectedRow;
 use crate::scoring::MeshScore;
@@ -31,8 +30,8 @@ pub struct MeshPage<'a> {
 }
 
 /// Writes DIR/NAME.html with its charts as DIR/NAME.auc.png and DIR/NAME.lorenz.png.
-pub fn write_mesh_page(dir: &Path, page: &MeshPage) -> Result<PathBuf> {
-    create_output_dir(dir)?;
+pub fn write_mesh_page(dir: &Path, page: &MeshPage) -> Result<PathBuf, ReportError> {
+    create_output_dir(dir).map_err(ReportError::stage)?;
     write_score_plots(&dir.join("chart"), page.name, page.maps, page.score)?;
     let mut h = String::new();
     write!(
@@ -58,8 +57,7 @@ pub fn write_mesh_page(dir: &Path, page: &MeshPage) -> Result<PathBuf> {
             stimulus: Some((&page.stim.plan, page.stim.fps)),
         },
         &ViewerLimits::default(),
-    )
-    .map_err(anyhow::Error::msg)?;
+    )?;
     write!(
         h,
         "<h2>AUC-Judd over blur</h2><p>Each map blurred over the surface; the grey band holds 95% of {} seeded random maps blurred the same way; black: one half of the subjects predicting the other.</p><div class=\"grid\"><img alt=\"AUC over blur\" src=\"chart.{1}.auc.png\"><img alt=\"Lorenz curves\" src=\"chart.{1}.lorenz.png\"></div>",
@@ -94,7 +92,7 @@ pub fn write_mesh_page(dir: &Path, page: &MeshPage) -> Result<PathBuf> {
     }
     h += "</ul></body></html>\n";
     let path = dir.join(format!("{}.html", page.name));
-    std::fs::write(&path, h).with_context(|| format!("cannot write {}", path.display()))?;
+    std::fs::write(&path, h).map_err(ReportError::io("write", &path))?;
     Ok(path)
 }
 

@@ -2,6 +2,7 @@
 //! maps. May import every library stage (it shows their results); no stage imports it.
 pub mod cross_validation_report;
 pub mod demo_report;
+mod error;
 pub mod html;
 pub mod map_render;
 pub mod mesh_page;
@@ -11,3 +12,5 @@ pub mod score_plots;
 pub mod study_report;
 pub mod viewer;
 pub mod viewer_files;
+
+pub use error::ReportError;

@@ -45,9 +45,14 @@ pub struct Chart<'a> {
 }
 
 /// Writes a 900×600 PNG line chart with a legend.
-pub fn line_chart_png(path: &Path, chart: &Chart, series: &[Series]) -> Result<(), String> {
+pub fn line_chart_png(
+    path: &Path,
+    chart: &Chart,
+    series: &[Series],
+) -> Result<(), super::ReportError> {
     register_font();
-    let err = |e: &dyn std::fmt::Display| format!("{}: {e}", path.display());
+    let err =
+        |e: &dyn std::fmt::Display| super::ReportError::Chart(format!("{}: {e}", path.display()));
     let root = BitMapBackend::new(path, (900, 600)).into_drawing_area();
     root.fill(&WHITE).map_err(|e| err(&e))?;
     let mut c = ChartBuilder::on(&root)

@@ -11,24 +11,9 @@ use crate::mesh::Mesh;
 use crate::protocol::Protocol;
 use crate::provenance::{InputFile, Provenance};
 use crate::report::map_render::render_map;
+use crate::report::ReportError;
 use crate::saliency::Method;
 use crate::stimulus::camera::CameraPlan;
-
-/// Why the robustness files could not be written.
-#[derive(Debug, thiserror::Error)]
-pub enum RobustnessReportError {
-    /// A file could not be written or an input could not be hashed.
-    #[error("cannot write {}: {source}", path.display())]
-    Write {
-        /// The file.
-        path: PathBuf,
-        /// The I/O error.
-        source: std::io::Error,
-    },
-    /// The figure could not be rendered or saved.
-    #[error("the robustness figure: {0}")]
-    Figure(String),
-}
 
 #[derive(Serialize)]
 struct Sidecar<'a> {
@@ -86,15 +71,12 @@ pub fn robustness_markdown(
 
 /// One row per method, 400x400 tiles: the clean mesh, then each damaged copy with its own map,
 /// seen from the built-in protocol's first hold view.
-pub fn robustness_figure(
-    mesh: &Mesh,
-    result: &RobustnessResult,
-) -> Result<RgbImage, RobustnessReportError> {
+pub fn robustness_figure(mesh: &Mesh, result: &RobustnessResult) -> Result<RgbImage, ReportError> {
     let (w, h) = (400u32, 400u32);
     let text = include_str!("../../protocols/hu2020.toml")
         .replace("width_px = 1680", &format!("width_px = {w}"))
         .replace("height_px = 1050", &format!("height_px = {h}"));
-    let figure_error = |e: String| RobustnessReportError::Figure(e);
+    let figure_error = |e: String| ReportError::Chart(e);
     let protocol = Protocol::from_toml(&text, "hu2020.toml (400x400)")
         .map_err(|e| figure_error(e.to_string()))?;
     let plan = CameraPlan::new(mesh, &protocol).map_err(figure_error)?;
@@ -129,17 +111,14 @@ pub fn write_robustness(
     params: &RobustnessParams,
     result: &RobustnessResult,
     prefix: &Path,
-) -> Result<String, RobustnessReportError> {
+) -> Result<String, ReportError> {
     let path = |ext: &str| PathBuf::from(format!("{}.{ext}", prefix.display()));
     let write = |ext: &str, bytes: &[u8]| {
         let p = path(ext);
-        std::fs::write(&p, bytes).map_err(|source| RobustnessReportError::Write { path: p, source })
+        std::fs::write(&p, bytes).map_err(ReportError::io("write", p))
     };
     if let Some(dir) = prefix.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|source| RobustnessReportError::Write {
-            path: dir.to_path_buf(),
-            source,
-        })?;
+        std::fs::create_dir_all(dir).map_err(ReportError::io("create", dir))?;
     }
     let name = mesh_path
         .file_name()
@@ -151,11 +130,8 @@ pub fn write_robustness(
     write("md", md.as_bytes())?;
     robustness_figure(mesh, result)?
         .save(path("png"))
-        .map_err(|e| RobustnessReportError::Figure(format!("{}: {e}", path("png").display())))?;
-    let hashed = InputFile::hash(mesh_path).map_err(|source| RobustnessReportError::Write {
-        path: mesh_path.to_path_buf(),
-        source,
-    })?;
+        .map_err(|e| ReportError::Chart(format!("{}: {e}", path("png").display())))?;
+    let hashed = InputFile::hash(mesh_path).map_err(ReportError::io("read", mesh_path))?;
     let sidecar = Sidecar {
         provenance: Provenance::new(vec![hashed]),
         parameters: params,

@@ -2,10 +2,10 @@
 //! curves of the maps with their Gini index.
 use std::path::{Path, PathBuf};
 
-use anyhow::Result;
 use plotters::style::RGBColor;
 
 use super::plot::{line_chart_png, Chart, Series, PALETTE};
+use super::ReportError;
 use crate::scoring::{gini_index, lorenz_curve, MeshScore, CHANCE, CHANCE_HIGH, CHANCE_LOW, HUMAN};
 
 /// AUC-Judd over blur (methods, chance dashed, human ceiling in black) and Lorenz curves of
@@ -15,7 +15,7 @@ pub fn write_score_plots(
     mesh: &str,
     maps: &[(String, Vec<f64>)],
     score: &MeshScore,
-) -> Result<Vec<String>> {
+) -> Result<Vec<String>, ReportError> {
     let curve = |method: &str, metric: &str| -> Vec<(f64, f64)> {
         score
             .rows
@@ -41,8 +41,7 @@ pub fn write_score_plots(
         curve(HUMAN, "auc_judd"),
     );
     let auc_path = PathBuf::from(format!("{}.{mesh}.auc.png", prefix.display()));
-    auc_chart_png(&auc_path, &format!("{mesh}: AUC-Judd vs blur"), &series)
-        .map_err(anyhow::Error::msg)?;
+    auc_chart_png(&auc_path, &format!("{mesh}: AUC-Judd vs blur"), &series)?;
     let mut lorenz = vec![Series {
         name: "uniform (Gini 0)".into(),
         points: vec![(0.0, 0.0), (1.0, 1.0)],
@@ -77,8 +76,7 @@ pub fn write_score_plots(
             y_range: (0.0, 1.0),
         },
         &lorenz,
-    )
-    .map_err(anyhow::Error::msg)?;
+    )?;
     Ok(vec![
         auc_path.display().to_string(),
         lorenz_path.display().to_string(),
@@ -125,7 +123,7 @@ pub fn auc_series(
 }
 
 /// Writes an AUC-over-blur chart: y from just below the lowest point or band edge to 1.
-pub fn auc_chart_png(path: &Path, title: &str, series: &[Series]) -> Result<()> {
+pub fn auc_chart_png(path: &Path, title: &str, series: &[Series]) -> Result<(), ReportError> {
     let lowest = series
         .iter()
         .flat_map(|s| {
@@ -150,5 +148,4 @@ pub fn auc_chart_png(path: &Path, title: &str, series: &[Series]) -> Result<()> 
         },
         series,
     )
-    .map_err(anyhow::Error::msg)
 }

@@ -5,12 +5,28 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
-use anyhow::{Context, Result};
-
 use super::html::{esc, fmt3};
 use super::mesh_page::{FATES, STYLE};
 use super::score_plots::{auc_chart_png, auc_series};
+use super::ReportError;
 use crate::scoring::{chance_band_of_mean, peak_over_blur, CHANCE, CHANCE_HIGH, CHANCE_LOW, HUMAN};
+
+type Result<T, E = ReportError> = std::result::Result<T, E>;
+
+/// A CSV table opened for reading, its failure naming the file.
+fn open_table(path: &Path) -> Result<csv::Reader<std::fs::File>> {
+    let file = std::fs::File::open(path).map_err(ReportError::io("read", path))?;
+    Ok(csv::Reader::from_reader(file))
+}
+
+/// A row of `path` at 1-based line `line` that cannot be used.
+fn table_error(path: &Path, line: usize, message: impl std::fmt::Display) -> ReportError {
+    ReportError::Table {
+        path: path.to_path_buf(),
+        line,
+        message: message.to_string(),
+    }
+}
 
 /// One row of scores.csv.
 struct Row {
@@ -22,19 +38,13 @@ struct Row {
 }
 
 fn read_scores(path: &Path) -> Result<Vec<Row>> {
-    let mut r =
-        csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut r = open_table(path)?;
     let mut rows = Vec::new();
     for (i, rec) in r.records().enumerate() {
-        let rec = rec.with_context(|| format!("{}: line {}", path.display(), i + 2))?;
+        let rec = rec.map_err(|e| table_error(path, i + 2, e))?;
         let num = |k: usize| -> Result<f64> {
-            rec.get(k).unwrap_or("").parse::<f64>().with_context(|| {
-                format!(
-                    "{}: line {}, column {}: not a number",
-                    path.display(),
-                    i + 2,
-                    k + 1
-                )
+            rec.get(k).unwrap_or("").parse::<f64>().map_err(|e| {
+                table_error(path, i + 2, format!("column {}: not a number: {e}", k + 1))
             })
         };
         rows.push(Row {
@@ -50,21 +60,20 @@ fn read_scores(path: &Path) -> Result<Vec<Row>> {
 
 /// The chance draws of one mesh, as `score` wrote them to scores/chance/MESH.csv.
 pub fn read_chance_draws(path: &Path) -> Result<Vec<(f64, Vec<f64>)>> {
-    let mut r =
-        csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
+    let mut r = open_table(path)?;
     let mut out: Vec<(f64, Vec<f64>)> = Vec::new();
     for (i, rec) in r.records().enumerate() {
-        let rec = rec.with_context(|| format!("{}: line {}", path.display(), i + 2))?;
+        let rec = rec.map_err(|e| table_error(path, i + 2, e))?;
         let blur: f64 = rec
             .get(0)
             .unwrap_or("")
             .parse()
-            .with_context(|| format!("{}: line {}: bad blur", path.display(), i + 2))?;
+            .map_err(|e| table_error(path, i + 2, format!("bad blur: {e}")))?;
         let value: f64 = rec
             .get(2)
             .unwrap_or("")
             .parse()
-            .with_context(|| format!("{}: line {}: bad value", path.display(), i + 2))?;
+            .map_err(|e| table_error(path, i + 2, format!("bad value: {e}")))?;
         match out.last_mut() {
             Some((b, v)) if *b == blur => v.push(value),
             _ => out.push((blur, vec![value])),
@@ -81,7 +90,7 @@ pub fn write_chance_draws(path: &Path, draws: &[(f64, Vec<f64>)]) -> Result<()> 
             let _ = writeln!(s, "{blur},{},{v}", j + 1);
         }
     }
-    std::fs::write(path, s).with_context(|| format!("cannot write {}", path.display()))
+    std::fs::write(path, s).map_err(ReportError::io("write", path))
 }
 
 /// Per-subject data quality over all the stimuli of ingest/quality.csv.
@@ -96,9 +105,8 @@ struct SubjectQuality {
 }
 
 fn read_quality(path: &Path) -> Result<BTreeMap<String, SubjectQuality>> {
-    let mut r =
-        csv::Reader::from_path(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let headers = r.headers()?.clone();
+    let mut r = open_table(path)?;
+    let headers = r.headers().map_err(|e| table_error(path, 1, e))?.clone();
     let col = |name: &str| headers.iter().position(|h| h == name);
     let (subject, samples, lost, precision, kept, invalid) = (
         col("subject"),
@@ -109,8 +117,8 @@ fn read_quality(path: &Path) -> Result<BTreeMap<String, SubjectQuality>> {
         col("invalid"),
     );
     let mut out: BTreeMap<String, SubjectQuality> = BTreeMap::new();
-    for rec in r.records() {
-        let rec = rec?;
+    for (i, rec) in r.records().enumerate() {
+        let rec = rec.map_err(|e| table_error(path, i + 2, e))?;
         let get = |c: Option<usize>| c.and_then(|c| rec.get(c)).unwrap_or("");
         let q = out.entry(get(subject).to_string()).or_default();
         q.stimuli += 1;
@@ -188,7 +196,7 @@ fn mean_section(
     }
     let band = if draws.len() == meshes.len() && !draws.is_empty() {
         let refs: Vec<&[(f64, Vec<f64>)]> = draws.iter().map(|d| d.as_slice()).collect();
-        chance_band_of_mean(&refs).map_err(anyhow::Error::msg)?
+        chance_band_of_mean(&refs).map_err(ReportError::Invalid)?
     } else {
         Vec::new()
     };
@@ -248,8 +256,9 @@ fn mesh_table(out: &Path, rows: &[Row], meshes: &[String], methods: &[String]) -
     for mesh in meshes {
         let truth_path = out.join("truth").join(mesh).join("truth.json");
         let truth: serde_json::Value = match std::fs::read(&truth_path) {
-            Ok(b) => serde_json::from_slice(&b)
-                .with_context(|| format!("{}: not JSON", truth_path.display()))?,
+            Ok(b) => serde_json::from_slice(&b).map_err(|e| {
+                ReportError::Stage(format!("{}: not JSON: {e}", truth_path.display()))
+            })?,
             Err(_) => serde_json::Value::Null,
         };
         let subjects = truth["subjects"].as_object();
@@ -399,7 +408,7 @@ pub fn write_study_report(out: &Path, problems: &[String]) -> Result<PathBuf> {
         }
     }
     let report_dir = out.join("report");
-    crate::file_bytes::create_output_dir(&report_dir)?;
+    crate::file_bytes::create_output_dir(&report_dir).map_err(ReportError::stage)?;
 
     let mut h = format!(
         "<!doctype html><html><head><meta charset=\"utf-8\"><title>meshgaze study</title><style>{STYLE}</style></head><body><h1>meshgaze study: {} meshes, {} methods</h1><p>Written by meshgaze {} from the files beside it (study.json has the provenance of every input).</p>",
@@ -424,6 +433,6 @@ pub fn write_study_report(out: &Path, problems: &[String]) -> Result<PathBuf> {
     h += &time_section(&out.join("study.json"));
     h += "<h2>Files</h2><ul><li><a href=\"scores.csv\">scores.csv</a> (mesh, method, metric, blur, value)</li><li><a href=\"study.json\">study.json</a></li><li><a href=\"run.log\">run.log</a></li><li><a href=\"ingest/fixations.csv\">ingest/fixations.csv</a>, <a href=\"ingest/quality.csv\">ingest/quality.csv</a></li></ul></body></html>\n";
     let path = out.join("report.html");
-    std::fs::write(&path, h).with_context(|| format!("cannot write {}", path.display()))?;
+    std::fs::write(&path, h).map_err(ReportError::io("write", &path))?;
     Ok(path)
 }

@@ -9,6 +9,7 @@
 use base64::Engine;
 use serde::Serialize;
 
+use super::ReportError;
 use crate::mesh::simplification::simplify_to_vertex_count;
 use crate::mesh::{ColorScale, Mesh};
 use crate::projection::table::ProjectedRow;
@@ -172,22 +173,22 @@ fn timeline(plan: &CameraPlan, fps: u32) -> Timeline {
     }
 }
 
-fn data_json(input: &ViewerInput, limits: &ViewerLimits) -> Result<String, String> {
+fn data_json(input: &ViewerInput, limits: &ViewerLimits) -> Result<String, ReportError> {
     let n = input.mesh.positions.len();
     for (name, values) in &input.maps {
         if values.len() != n {
-            return Err(format!(
+            return Err(ReportError::Invalid(format!(
                 "map `{name}` has {} values; the mesh has {n} vertices",
                 values.len()
-            ));
+            )));
         }
     }
     if let Some((d, _)) = &input.truth_density {
         if d.len() != n {
-            return Err(format!(
+            return Err(ReportError::Invalid(format!(
                 "the truth density has {} values; the mesh has {n} vertices",
                 d.len()
-            ));
+            )));
         }
     }
     if let Some(bad) = input
@@ -196,9 +197,9 @@ fn data_json(input: &ViewerInput, limits: &ViewerLimits) -> Result<String, Strin
         .filter_map(|r| r.vertex)
         .find(|&v| v >= n)
     {
-        return Err(format!(
+        return Err(ReportError::Invalid(format!(
             "a fixation names vertex {bad}; the mesh has {n} vertices"
-        ));
+        )));
     }
     let simplified;
     let (shown, keep) = if input.mesh.triangles.len() > limits.max_triangles {
@@ -266,14 +267,14 @@ fn data_json(input: &ViewerInput, limits: &ViewerLimits) -> Result<String, Strin
         timeline: input.stimulus.map(|(plan, fps)| timeline(plan, fps)),
         version: env!("CARGO_PKG_VERSION"),
     };
-    let json = serde_json::to_string(&data).map_err(|e| e.to_string())?;
+    let json = serde_json::to_string(&data).map_err(ReportError::chart)?;
     // Inside <script>, "</" could close the element early (a subject named "</script>").
     Ok(json.replace("</", "<\\/"))
 }
 
 /// The viewer as an HTML fragment (a `<div class="mgv">`, its style and script) for a page of
 /// its own or a report. Several fragments may share a page.
-pub fn viewer_fragment(input: &ViewerInput, limits: &ViewerLimits) -> Result<String, String> {
+pub fn viewer_fragment(input: &ViewerInput, limits: &ViewerLimits) -> Result<String, ReportError> {
     let json = data_json(input, limits)?;
     Ok(format!(
         "<div class=\"mgv\"><noscript>The 3D viewer needs JavaScript and WebGL.</noscript></div>\n\
@@ -283,7 +284,7 @@ pub fn viewer_fragment(input: &ViewerInput, limits: &ViewerLimits) -> Result<Str
 }
 
 /// A whole self-contained page holding the viewer and nothing else.
-pub fn viewer_page(input: &ViewerInput, limits: &ViewerLimits) -> Result<String, String> {
+pub fn viewer_page(input: &ViewerInput, limits: &ViewerLimits) -> Result<String, ReportError> {
     let fragment = viewer_fragment(input, limits)?;
     Ok(format!(
         "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\

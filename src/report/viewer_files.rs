@@ -1,9 +1,8 @@
 //! `meshgaze view`'s inputs read from the files the other commands write.
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
-
 use super::viewer::{viewer_page, ViewerInput, ViewerLimits};
+use super::ReportError;
 use crate::file_bytes::stem_of;
 use crate::mesh::load_mesh;
 use crate::projection::table::{read_projected_csv, ProjectedRow};
@@ -37,8 +36,8 @@ fn csv_in(p: &Path, name: &str) -> PathBuf {
 }
 
 /// Reads every input and returns the viewer page, with a one-line account of what it holds.
-pub fn view_page_from_files(files: &ViewFiles) -> Result<(String, String)> {
-    let (mesh, _) = load_mesh(&files.mesh)?;
+pub fn view_page_from_files(files: &ViewFiles) -> Result<(String, String), ReportError> {
+    let (mesh, _) = load_mesh(&files.mesh).map_err(ReportError::stage)?;
     let n = mesh.positions.len();
     let mut maps = Vec::new();
     for spec in &files.saliency {
@@ -49,9 +48,11 @@ pub fn view_page_from_files(files: &ViewFiles) -> Result<(String, String)> {
             _ => (stem_of(Path::new(spec)), PathBuf::from(spec)),
         };
         if maps.iter().any(|(m, _): &(String, Vec<f64>)| *m == name) {
-            bail!("two maps are named `{name}`: name them with NAME=PATH");
+            return Err(ReportError::Invalid(format!(
+                "two maps are named `{name}`: name them with NAME=PATH"
+            )));
         }
-        let values = read_map(&path, n)?;
+        let values = read_map(&path, n).map_err(ReportError::stage)?;
         maps.push((name, values));
     }
     let mut truth_density = None;
@@ -62,13 +63,13 @@ pub fn view_page_from_files(files: &ViewFiles) -> Result<(String, String)> {
         .collect();
     if let Some(t) = &files.truth {
         let density_path = csv_in(t, "density.csv");
-        let density = read_density(&density_path, n)?;
+        let density = read_density(&density_path, n).map_err(ReportError::stage)?;
         if density.len() != n {
-            bail!(
+            return Err(ReportError::Invalid(format!(
                 "{}: {} rows; the mesh has {n} vertices",
                 density_path.display(),
                 density.len()
-            );
+            )));
         }
         let dir = density_path.parent().unwrap_or(Path::new("."));
         let blur = std::fs::read(dir.join("truth.json"))
@@ -82,14 +83,16 @@ pub fn view_page_from_files(files: &ViewFiles) -> Result<(String, String)> {
     }
     let mut fixations: Vec<ProjectedRow> = Vec::new();
     for f in &fixation_files {
-        fixations.extend(read_projected_csv(f).map_err(anyhow::Error::msg)?);
+        fixations.extend(read_projected_csv(f).map_err(ReportError::Stage)?);
     }
     let stim = files
         .stimulus
         .as_ref()
-        .map(|s| load_stimulus(s, Some(&files.mesh)).map_err(anyhow::Error::msg))
+        .map(|s| load_stimulus(s, Some(&files.mesh)))
         .transpose()
-        .context("the stimulus must be rendered from this mesh")?;
+        .map_err(|e| {
+            ReportError::Invalid(format!("the stimulus must be rendered from this mesh: {e}"))
+        })?;
     let input = ViewerInput {
         title: stem_of(&files.mesh),
         mesh: &mesh,
@@ -98,7 +101,7 @@ pub fn view_page_from_files(files: &ViewFiles) -> Result<(String, String)> {
         fixations,
         stimulus: stim.as_ref().map(|s| (&s.plan, s.fps)),
     };
-    let page = viewer_page(&input, &files.limits).map_err(anyhow::Error::msg)?;
+    let page = viewer_page(&input, &files.limits)?;
     let on_mesh = input.fixations.iter().filter(|r| r.x.is_some()).count();
     let account = format!(
         "{}: {n} vertices, {} maps{}, {} fixations ({on_mesh} on the surface){}",
