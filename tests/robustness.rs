@@ -143,7 +143,8 @@ fn impossible_corruptions_and_empty_meshes_are_refused_by_name() {
             &meshgaze::progress::Silent,
         )
         .err()
-        .expect("refused");
+        .expect("refused")
+        .to_string();
         assert!(e.contains("no triangles"), "{e}");
     }
 }

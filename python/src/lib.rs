@@ -243,7 +243,7 @@ fn saliency<'py>(
     progress: bool,
     params: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
-    let method = Method::from_name(method).map_err(PyValueError::new_err)?;
+    let method = Method::from_name(method).map_err(|e| PyValueError::new_err(e.to_string()))?;
     if model.is_some() && method != Method::Gaze {
         return Err(PyValueError::new_err("model= is for method=\"gaze\""));
     }
@@ -261,6 +261,7 @@ fn saliency<'py>(
         .detach(|| {
             let viewing = viewing(protocol.as_deref(), model.as_deref(), &settings)?;
             compute_saliency_viewed(method, mesh, &sms, &viewing, progress_of(progress))
+                .map_err(|e| e.to_string())
         })
         .map_err(fail)?
         .values;

@@ -141,7 +141,8 @@ pub fn robustness(
     let mut maps = Vec::new();
     let mut rows = Vec::new();
     for &method in methods {
-        let clean = compute_saliency_viewed(method, mesh, sms, &viewing, progress)?;
+        let clean = compute_saliency_viewed(method, mesh, sms, &viewing, progress)
+            .map_err(|e| e.to_string())?;
         // The clean map's top k vertices (ties to the lower index).
         let mut order: Vec<usize> = (0..n).collect();
         order.sort_by(|&a, &b| clean.values[b].total_cmp(&clean.values[a]).then(a.cmp(&b)));
@@ -151,7 +152,8 @@ pub fn robustness(
         }
         let mut own = Vec::new();
         for c in &corrupted {
-            let out = compute_saliency_viewed(method, &c.mesh, sms, &viewing, progress)?;
+            let out = compute_saliency_viewed(method, &c.mesh, sms, &viewing, progress)
+                .map_err(|e| e.to_string())?;
             let back = transfer_by_nearest_surface_point(&c.mesh, &out.values, &mesh.positions);
             rows.push(AgreementRow {
                 method: method.name().to_string(),

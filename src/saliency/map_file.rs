@@ -4,7 +4,6 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
 use serde::Serialize;
 
 use super::{
@@ -16,6 +15,10 @@ use crate::progress::Progress;
 use crate::provenance::{InputFile, Provenance};
 use crate::scoring::gini_index;
 use crate::truth::{load_ground_truth, GroundTruth};
+
+use super::SaliencyError;
+
+type Result<T, E = SaliencyError> = std::result::Result<T, E>;
 
 /// `PREFIX` without a trailing .csv/.ply/.json, so `-o out.csv` means prefix `out`.
 pub fn output_prefix(p: &Path) -> PathBuf {
@@ -35,26 +38,30 @@ pub fn with_suffix(prefix: &Path, suffix: &str) -> PathBuf {
 /// Writes `vertex,saliency`, one row per vertex in input order.
 pub fn write_map_csv(path: &Path, values: &[f64]) -> Result<()> {
     let mut out = std::io::BufWriter::new(
-        std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?,
+        std::fs::File::create(path).map_err(SaliencyError::io("create", path))?,
     );
-    writeln!(out, "vertex,saliency")?;
-    for (i, v) in values.iter().enumerate() {
-        // `{}` prints the shortest text that reads back to the same f64: exact and stable.
-        writeln!(out, "{i},{v}")?;
-    }
-    out.flush()?;
-    Ok(())
+    let mut rows = || -> std::io::Result<()> {
+        writeln!(out, "vertex,saliency")?;
+        for (i, v) in values.iter().enumerate() {
+            // `{}` prints the shortest text that reads back to the same f64: exact and stable.
+            writeln!(out, "{i},{v}")?;
+        }
+        out.flush()
+    };
+    rows().map_err(SaliencyError::io("write", path))
 }
 
 /// Reads a per-vertex map (`vertex,saliency` CSV, or any per-vertex format the truth reader
 /// takes) of a mesh with `n_vertices` vertices.
 pub fn read_map(path: &Path, n_vertices: usize) -> Result<Vec<f64>> {
-    match load_ground_truth(path, n_vertices, 0.05)? {
+    match load_ground_truth(path, n_vertices, 0.05)
+        .map_err(|e| SaliencyError::Map(e.to_string()))?
+    {
         GroundTruth::VertexMap(m) => Ok(m.values),
-        GroundTruth::Fixations(_) => bail!(
+        GroundTruth::Fixations(_) => Err(SaliencyError::Map(format!(
             "{}: expected a per-vertex map (vertex,saliency), found a fixation set",
             path.display()
-        ),
+        ))),
     }
 }
 
@@ -110,18 +117,21 @@ pub fn compute_and_write_map(
     prefix: &Path,
     progress: &dyn Progress,
 ) -> Result<SaliencyRun> {
-    let fail = |e: String| anyhow::anyhow!("{}: {e}", mesh_path.display());
+    let fail =
+        |e: &dyn std::fmt::Display| SaliencyError::Compute(format!("{}: {e}", mesh_path.display()));
     let wants_extras = extras.per_sample || extras.per_scale || extras.dense;
     if wants_extras && method != Method::Sms {
-        bail!("--per-sample, --per-scale and --dense apply to --method sms only");
+        return Err(SaliencyError::Invalid(
+            "--per-sample, --per-scale and --dense apply to --method sms only".into(),
+        ));
     }
     let (values, report, seconds, sms_result) = if method == Method::Sms {
         let wanted = SmsExtras {
             per_scale: extras.per_scale,
             dense: extras.dense,
         };
-        let r = sparse_metric_saliency(mesh, params, wanted, progress).map_err(fail)?;
-        let report = serde_json::to_value(&r.report)?;
+        let r = sparse_metric_saliency(mesh, params, wanted, progress).map_err(|e| fail(&e))?;
+        let report = serde_json::to_value(&r.report).map_err(|e| fail(&e))?;
         (
             r.vertex_saliency.clone(),
             report,
@@ -129,12 +139,13 @@ pub fn compute_and_write_map(
             Some(r),
         )
     } else {
-        let out = compute_saliency_viewed(method, mesh, params, viewing, progress).map_err(fail)?;
+        let out = compute_saliency_viewed(method, mesh, params, viewing, progress)
+            .map_err(|e| fail(&e))?;
         (out.values, out.report, out.seconds, None)
     };
     let gini = gini_index(&values);
     if let Some(dir) = prefix.parent().filter(|d| !d.as_os_str().is_empty()) {
-        crate::file_bytes::create_output_dir(dir)?;
+        crate::file_bytes::create_output_dir(dir).map_err(SaliencyError::io("create", dir))?;
     }
     let mut outputs = Vec::new();
     let csv = with_suffix(prefix, ".csv");
@@ -152,7 +163,7 @@ pub fn compute_and_write_map(
     ];
     let ply = with_suffix(prefix, ".ply");
     write_ply_with_quality(&ply, mesh, &values, &comments)
-        .with_context(|| format!("cannot write {}", ply.display()))?;
+        .map_err(|e| SaliencyError::Compute(format!("cannot write {}: {e}", ply.display())))?;
     outputs.push(ply.display().to_string());
     let mut extra_maps = Vec::new();
     if let Some(result) = &sms_result {
@@ -164,8 +175,9 @@ pub fn compute_and_write_map(
             let c = with_suffix(&base, ".csv");
             write_map_csv(&c, &extra.vertex_saliency)?;
             let p = with_suffix(&base, ".ply");
-            write_ply_with_quality(&p, mesh, &extra.vertex_saliency, &comments)
-                .with_context(|| format!("cannot write {}", p.display()))?;
+            write_ply_with_quality(&p, mesh, &extra.vertex_saliency, &comments).map_err(|e| {
+                SaliencyError::Compute(format!("cannot write {}: {e}", p.display()))
+            })?;
             outputs.push(c.display().to_string());
             outputs.push(p.display().to_string());
             extra_maps.push((extra.name.clone(), extra.gini));
@@ -184,8 +196,8 @@ pub fn compute_and_write_map(
         extra_maps,
         outputs: outputs.clone(),
     };
-    std::fs::write(&json, serde_json::to_string_pretty(&sidecar)? + "\n")
-        .with_context(|| format!("cannot write {}", json.display()))?;
+    let text = serde_json::to_string_pretty(&sidecar).map_err(|e| fail(&e))? + "\n";
+    std::fs::write(&json, text).map_err(SaliencyError::io("write", &json))?;
     Ok(SaliencyRun {
         gini,
         seconds,
@@ -198,18 +210,20 @@ pub fn compute_and_write_map(
 fn write_samples_csv(prefix: &Path, result: &SmsResult) -> Result<String> {
     let path = with_suffix(prefix, ".samples.csv");
     let mut out = std::io::BufWriter::new(
-        std::fs::File::create(&path)
-            .with_context(|| format!("cannot create {}", path.display()))?,
+        std::fs::File::create(&path).map_err(SaliencyError::io("create", &path))?,
     );
-    writeln!(out, "sample,x,y,z,saliency")?;
-    for (i, (p, s)) in result
-        .sample_points
-        .iter()
-        .zip(&result.sample_saliency)
-        .enumerate()
-    {
-        writeln!(out, "{i},{},{},{},{s}", p.x, p.y, p.z)?;
-    }
-    out.flush()?;
+    let mut rows = || -> std::io::Result<()> {
+        writeln!(out, "sample,x,y,z,saliency")?;
+        for (i, (p, s)) in result
+            .sample_points
+            .iter()
+            .zip(&result.sample_saliency)
+            .enumerate()
+        {
+            writeln!(out, "{i},{},{},{},{s}", p.x, p.y, p.z)?;
+        }
+        out.flush()
+    };
+    rows().map_err(SaliencyError::io("write", &path))?;
     Ok(path.display().to_string())
 }

@@ -11,6 +11,7 @@ use super::rarity::{
 };
 use super::spectral_irregularity::{spectral_irregularity, SpectralParams};
 use super::view_priors::{centre_prior, up_prior};
+use super::SaliencyError;
 use super::{sparse_metric_saliency, SmsExtras, SmsParams};
 use crate::gaze_model::surface_points::SurfacePoints;
 use crate::gaze_model::GazeModel;
@@ -73,17 +74,17 @@ impl Method {
     ];
 
     /// The method of a name as [`Method::name`] gives it (`sms`, `mc`, ...), case-blind.
-    pub fn from_name(name: &str) -> Result<Method, String> {
+    pub fn from_name(name: &str) -> Result<Method, SaliencyError> {
         let wanted = name.trim().to_ascii_lowercase();
         Method::ALL
             .into_iter()
             .find(|m| m.name() == wanted)
             .ok_or_else(|| {
                 let names: Vec<&str> = Method::ALL.iter().map(|m| m.name()).collect();
-                format!(
+                SaliencyError::Invalid(format!(
                     "unknown method `{name}`: expected one of {}",
                     names.join(", ")
-                )
+                ))
             })
     }
 
@@ -196,7 +197,7 @@ pub fn compute_saliency(
     mesh: &Mesh,
     sms: &SmsParams,
     progress: &dyn Progress,
-) -> Result<MethodOutput, String> {
+) -> Result<MethodOutput, SaliencyError> {
     compute_saliency_viewed(method, mesh, sms, &Viewing::builtin(), progress)
 }
 
@@ -207,13 +208,24 @@ pub fn compute_saliency_viewed(
     sms: &SmsParams,
     viewing: &Viewing,
     progress: &dyn Progress,
-) -> Result<MethodOutput, String> {
+) -> Result<MethodOutput, SaliencyError> {
     if mesh.triangles.is_empty() {
-        return Err(format!(
+        return Err(SaliencyError::Compute(format!(
             "{}: the mesh has no triangles, so there is no surface to compute saliency on",
             method.name()
-        ));
+        )));
     }
+    compute_nonempty(method, mesh, sms, viewing, progress).map_err(SaliencyError::Compute)
+}
+
+/// [`compute_saliency_viewed`] on a mesh with triangles; the methods' own errors are text.
+fn compute_nonempty(
+    method: Method,
+    mesh: &Mesh,
+    sms: &SmsParams,
+    viewing: &Viewing,
+    progress: &dyn Progress,
+) -> Result<MethodOutput, String> {
     let t = Instant::now();
     let (values, report) = match method {
         Method::Sms => {
@@ -302,10 +314,10 @@ mod tests {
     #[test]
     fn every_method_reads_back_from_its_name_and_an_unknown_name_lists_them() {
         for m in Method::ALL {
-            assert_eq!(Method::from_name(m.name()), Ok(m));
-            assert_eq!(Method::from_name(&m.name().to_uppercase()), Ok(m));
+            assert_eq!(Method::from_name(m.name()).ok(), Some(m));
+            assert_eq!(Method::from_name(&m.name().to_uppercase()).ok(), Some(m));
         }
-        let e = Method::from_name("curvature").unwrap_err();
+        let e = Method::from_name("curvature").unwrap_err().to_string();
         assert!(e.contains("curvature") && e.contains("sms, mc, ms"), "{e}");
     }
 }

@@ -1,4 +1,5 @@
 //! Saliency methods: each computes one value per input vertex.
+mod error;
 pub mod lee_mesh_saliency;
 pub mod map_file;
 pub mod mean_curvature_saliency;
@@ -9,6 +10,7 @@ pub mod sms;
 pub mod spectral_irregularity;
 pub mod view_priors;
 
+pub use error::SaliencyError;
 pub use method::{
     compute_saliency, compute_saliency_viewed, Method, MethodOutput, RarityParams, Viewing,
     PAPER_METHODS,

@@ -45,7 +45,8 @@ pub fn scoring_cell(data: &Path) -> Result<ScoringCell, TimingError> {
     let t = Instant::now();
     let mut maps = Vec::new();
     for method in PAPER_METHODS {
-        let out = compute_saliency(method, &mesh, &SmsParams::default(), &Silent).map_err(stage)?;
+        let out = compute_saliency(method, &mesh, &SmsParams::default(), &Silent)
+            .map_err(|e| stage(e.to_string()))?;
         maps.push((Method::name(method).to_string(), out.values));
     }
     let maps_s = t.elapsed().as_secs_f64();

@@ -173,8 +173,8 @@ pub fn run_case(
     {
         let mut fastest = f64::INFINITY;
         for _ in 0..repeat.max(1) {
-            let out =
-                compute_saliency(method, &mesh, &params, &Silent).map_err(step_error(name))?;
+            let out = compute_saliency(method, &mesh, &params, &Silent)
+                .map_err(|e| step_error(name)(e.to_string()))?;
             fastest = fastest.min(out.seconds);
         }
         result
