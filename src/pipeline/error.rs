@@ -5,12 +5,12 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum PipelineError {
     /// A file or folder could not be read or written.
-    #[error("cannot access {}: {source}", path.display())]
+    #[error("cannot access {}: {error}", path.display())]
     Io {
         /// The file or folder.
         path: PathBuf,
         /// The I/O error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// An input file is not usable.
     #[error("{}: {message}", path.display())]
@@ -45,6 +45,6 @@ impl PipelineError {
     /// An I/O error on `path`.
     pub fn io(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> PipelineError {
         let path = path.into();
-        move |source| PipelineError::Io { path, source }
+        move |error| PipelineError::Io { path, error }
     }
 }

@@ -3,10 +3,10 @@
 //! OUT.json and with marks OUT.truth.csv, OUT.eval.csv and OUT.eval.png.
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
 use plotters::style::RGBColor;
 use serde::Serialize;
 
+use super::PipelineError;
 use crate::experiments::features::evaluation_files::{
     alpha_sweep, separation_in_mesh_units, write_evaluation_csv, write_feature_points_csv,
     write_truth_points_csv, SeparationUnit,
@@ -64,20 +64,26 @@ struct Sidecar<'a> {
 }
 
 /// Reads one subject's marked vertices.
-pub fn read_marks(path: &Path, n_vertices: usize) -> Result<Vec<usize>> {
-    let text =
-        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    parse_marks(&text, &path.display().to_string(), n_vertices).map_err(anyhow::Error::msg)
+pub fn read_marks(path: &Path, n_vertices: usize) -> Result<Vec<usize>, PipelineError> {
+    let text = std::fs::read_to_string(path).map_err(PipelineError::io(path))?;
+    parse_marks(&text, &path.display().to_string(), n_vertices).map_err(PipelineError::Stage)
 }
 
-fn create(path: &Path) -> Result<std::io::BufWriter<std::fs::File>> {
-    Ok(std::io::BufWriter::new(
-        std::fs::File::create(path).with_context(|| format!("cannot create {}", path.display()))?,
-    ))
+/// Writes a table to `path` with `rows`, the I/O error naming the file.
+fn write_table(
+    path: &Path,
+    rows: impl FnOnce(std::io::BufWriter<std::fs::File>) -> std::io::Result<()>,
+) -> Result<(), PipelineError> {
+    let file = std::fs::File::create(path).map_err(PipelineError::io(path))?;
+    rows(std::io::BufWriter::new(file)).map_err(PipelineError::io(path))
 }
 
 /// The recall / precision / F-measure chart over the tolerance α.
-fn write_evaluation_chart(path: &Path, e: &[Evaluation], alpha_max: f64) -> Result<()> {
+fn write_evaluation_chart(
+    path: &Path,
+    e: &[Evaluation],
+    alpha_max: f64,
+) -> Result<(), PipelineError> {
     let series = |name: &str, color: RGBColor, f: fn(&Evaluation) -> f64| Series {
         name: name.into(),
         points: e
@@ -104,7 +110,7 @@ fn write_evaluation_chart(path: &Path, e: &[Evaluation], alpha_max: f64) -> Resu
             series("F-measure", PALETTE[2], |x| x.f_measure),
         ],
     )
-    .map_err(anyhow::Error::msg)
+    .map_err(PipelineError::stage)
 }
 
 /// Feature points of `values` on `mesh`, evaluated against the `marks` files when there are
@@ -120,9 +126,11 @@ pub fn run_feature_points(
     mut inputs: Vec<InputFile>,
     prefix: &Path,
     progress: &dyn Progress,
-) -> Result<FeatureRun> {
+) -> Result<FeatureRun, PipelineError> {
     if params.separation.is_nan() || params.separation <= 0.0 {
-        bail!("--separation must be positive");
+        return Err(PipelineError::Invalid(
+            "--separation must be positive".into(),
+        ));
     }
     progress.start("geodesic graph", 0);
     let graph = GeodesicGraph::new(mesh, params.steiner);
@@ -133,17 +141,19 @@ pub fn run_feature_points(
     let separation = separation_in_mesh_units(mesh, params.separation, params.unit, diameter);
     let points = feature_points(mesh, values, &graph, separation);
     if let Some(dir) = prefix.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(PipelineError::io(dir))?;
     }
     let path = |ext: &str| PathBuf::from(format!("{}{ext}", prefix.display()));
-    write_feature_points_csv(create(&path(".csv"))?, mesh, &points)?;
+    write_table(&path(".csv"), |w| {
+        write_feature_points_csv(w, mesh, &points)
+    })?;
     let mut truth = None;
     let mut evals = None;
     if !marks.is_empty() {
         let mut marked = Vec::new();
         for f in marks {
             marked.push(read_marks(f, mesh.positions.len())?);
-            inputs.push(InputFile::hash(f)?);
+            inputs.push(InputFile::hash(f).map_err(PipelineError::io(f))?);
         }
         let t = voted_ground_truth(&graph, &marked, params.sigma, params.min_subjects, diameter);
         let detected: Vec<usize> = points.iter().map(|p| p.vertex).collect();
@@ -155,9 +165,9 @@ pub fn run_feature_points(
             params.alpha_step,
             diameter,
         )
-        .map_err(anyhow::Error::msg)?;
-        write_truth_points_csv(create(&path(".truth.csv"))?, &t)?;
-        write_evaluation_csv(create(&path(".eval.csv"))?, &e)?;
+        .map_err(PipelineError::Invalid)?;
+        write_table(&path(".truth.csv"), |w| write_truth_points_csv(w, &t))?;
+        write_table(&path(".eval.csv"), |w| write_evaluation_csv(w, &e))?;
         write_evaluation_chart(&path(".eval.png"), &e, params.alpha_max)?;
         truth = Some(t);
         evals = Some(e);
@@ -176,10 +186,8 @@ pub fn run_feature_points(
         ground_truth: truth.as_deref(),
         evaluation: evals.as_deref(),
     };
-    std::fs::write(
-        path(".json"),
-        serde_json::to_string_pretty(&sidecar)? + "\n",
-    )?;
+    let json = serde_json::to_string_pretty(&sidecar).map_err(PipelineError::stage)? + "\n";
+    std::fs::write(path(".json"), json).map_err(PipelineError::io(path(".json")))?;
     Ok(FeatureRun {
         points: points.len(),
         separation_in_mesh_units: separation,

@@ -5,9 +5,9 @@
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
 use serde::Serialize;
 
+use super::PipelineError;
 use crate::mesh::load_mesh;
 use crate::progress::Progress;
 use crate::provenance::{InputFile, Provenance};
@@ -62,12 +62,12 @@ struct Summary<'a> {
 }
 
 /// Refuses to score the gaze model on an object it was trained on.
-fn refuse_training_object(viewing: &Viewing, mesh_name: &str) -> Result<()> {
+fn refuse_training_object(viewing: &Viewing, mesh_name: &str) -> Result<(), PipelineError> {
     let model = viewing.gaze_model();
     if model.training.objects.iter().any(|o| o.name == mesh_name) {
-        bail!(
+        return Err(PipelineError::Invalid(format!(
             "{mesh_name}: the gaze model was trained on an object named `{mesh_name}`, so its score here would be a training-set figure; `meshgaze train --cv` gives leave-one-object-out figures, or pass --model trained without it"
-        );
+        )));
     }
     Ok(())
 }
@@ -81,17 +81,19 @@ fn maps_of(
     mesh: &crate::mesh::Mesh,
     inputs: &mut Vec<InputFile>,
     progress: &dyn Progress,
-) -> Result<(Vec<(String, Vec<f64>)>, Vec<(String, f64)>)> {
+) -> Result<(Vec<(String, Vec<f64>)>, Vec<(String, f64)>), PipelineError> {
     let mut maps = Vec::new();
     let mut seconds = Vec::new();
     for file in req.saliency_files {
-        let GroundTruth::VertexMap(m) = load_ground_truth(file, mesh.positions.len(), 0.05)? else {
-            bail!(
-                "{}: expected a per-vertex map (vertex,saliency)",
-                file.display()
-            );
+        let GroundTruth::VertexMap(m) =
+            load_ground_truth(file, mesh.positions.len(), 0.05).map_err(PipelineError::stage)?
+        else {
+            return Err(PipelineError::input(
+                file,
+                "expected a per-vertex map (vertex,saliency)",
+            ));
         };
-        inputs.push(InputFile::hash(file)?);
+        inputs.push(InputFile::hash(file).map_err(PipelineError::io(file))?);
         let stem = file.file_name().unwrap_or_default().to_string_lossy();
         maps.push((
             stem.split('.').next().unwrap_or("map").to_string(),
@@ -104,7 +106,7 @@ fn maps_of(
         }
         let out =
             compute_saliency_viewed(method, mesh, &SmsParams::default(), req.viewing, progress)
-                .map_err(|e| anyhow::anyhow!("{}: {e}", mesh_path.display()))?;
+                .map_err(|e| PipelineError::input(mesh_path, e))?;
         seconds.push((method.name().to_string(), out.seconds));
         maps.push((method.name().to_string(), out.values));
     }
@@ -118,37 +120,41 @@ pub fn score_dataset(
     prefix: &Path,
     progress: &dyn Progress,
     on_mesh: &mut dyn FnMut(&ScoredMesh),
-) -> Result<ScoreOutputs> {
+) -> Result<ScoreOutputs, PipelineError> {
     if !(req.top_fraction > 0.0 && req.top_fraction <= 1.0) {
-        bail!("--top-fraction must be in (0, 1]");
+        return Err(PipelineError::Invalid(
+            "--top-fraction must be in (0, 1]".into(),
+        ));
     }
     if req.methods.is_empty() && req.saliency_files.is_empty() {
-        bail!("nothing to score: give --method (e.g. sms,ms,mc) and/or --saliency FILE");
+        return Err(PipelineError::Invalid(
+            "nothing to score: give --method (e.g. sms,ms,mc) and/or --saliency FILE".into(),
+        ));
     }
     if let Some(dir) = prefix.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+        std::fs::create_dir_all(dir).map_err(PipelineError::io(dir))?;
     }
     let csv_path = PathBuf::from(format!("{}.csv", prefix.display()));
     let mut csv = std::io::BufWriter::new(
-        std::fs::File::create(&csv_path)
-            .with_context(|| format!("cannot create {}", csv_path.display()))?,
+        std::fs::File::create(&csv_path).map_err(PipelineError::io(&csv_path))?,
     );
-    writeln!(csv, "{SCORE_CSV_HEADER}")?;
+    writeln!(csv, "{SCORE_CSV_HEADER}").map_err(PipelineError::io(&csv_path))?;
     let mut inputs = Vec::new();
     let mut entries = Vec::new();
     for (name, mesh_path, truth_path) in req.pairs {
-        let (mesh, load) = load_mesh(mesh_path)?;
-        let truth = load_ground_truth_on(truth_path, &mesh, req.top_fraction, req.truth_layout)?;
-        inputs.push(InputFile::hash(mesh_path)?);
-        inputs.push(InputFile::hash(truth_path)?);
+        let (mesh, load) = load_mesh(mesh_path).map_err(PipelineError::stage)?;
+        let truth = load_ground_truth_on(truth_path, &mesh, req.top_fraction, req.truth_layout)
+            .map_err(PipelineError::stage)?;
+        inputs.push(InputFile::hash(mesh_path).map_err(PipelineError::io(mesh_path))?);
+        inputs.push(InputFile::hash(truth_path).map_err(PipelineError::io(truth_path))?);
         let (maps, seconds) = maps_of(req, name, mesh_path, &mesh, &mut inputs, progress)?;
         let seen = hold_view_exposure(&mesh, &req.viewing.protocol)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", mesh_path.display()))?
+            .map_err(|e| PipelineError::input(mesh_path, e))?
             .seen();
         let score: MeshScore = score_mesh(&mesh, &truth, &maps, req.params, Some(&seen), progress)
-            .map_err(|e| anyhow::anyhow!("{}: {e}", mesh_path.display()))?;
-        let plots = write_score_plots(prefix, name, &maps, &score)?;
-        write_score_rows(&mut csv, name, &score.rows)?;
+            .map_err(|e| PipelineError::input(mesh_path, e))?;
+        let plots = write_score_plots(prefix, name, &maps, &score).map_err(PipelineError::stage)?;
+        write_score_rows(&mut csv, name, &score.rows).map_err(PipelineError::io(&csv_path))?;
         on_mesh(&ScoredMesh {
             name: name.clone(),
             vertices: mesh.positions.len(),
@@ -172,7 +178,7 @@ pub fn score_dataset(
             summaries: score.summaries,
         });
     }
-    csv.flush()?;
+    csv.flush().map_err(PipelineError::io(&csv_path))?;
     let mean = mean_summaries(&entries);
     let json_path = PathBuf::from(format!("{}.json", prefix.display()));
     let summary = Summary {
@@ -182,8 +188,8 @@ pub fn score_dataset(
         meshes: entries,
         mean,
     };
-    std::fs::write(&json_path, serde_json::to_string_pretty(&summary)? + "\n")
-        .with_context(|| format!("cannot write {}", json_path.display()))?;
+    let json = serde_json::to_string_pretty(&summary).map_err(PipelineError::stage)? + "\n";
+    std::fs::write(&json_path, json).map_err(PipelineError::io(&json_path))?;
     Ok(ScoreOutputs {
         csv: csv_path,
         json: json_path,

@@ -19,12 +19,12 @@ use crate::provenance::{sha256_hex, InputFile};
 #[derive(Debug, thiserror::Error)]
 pub enum StimulusLoadError {
     /// A file could not be read.
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {error}", path.display())]
     Read {
         /// The file.
         path: PathBuf,
         /// The I/O error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The manifest is not JSON.
     #[error("{}:{line}:{column}: not a stimulus manifest: {message}", path.display())]
@@ -198,9 +198,9 @@ pub fn load_stimulus(
     } else {
         manifest.to_path_buf()
     };
-    let bytes = std::fs::read(&manifest_path).map_err(|source| StimulusLoadError::Read {
+    let bytes = std::fs::read(&manifest_path).map_err(|error| StimulusLoadError::Read {
         path: manifest_path.clone(),
-        source,
+        error,
     })?;
     let v: Value = serde_json::from_slice(&bytes).map_err(|e| StimulusLoadError::NotJson {
         path: manifest_path.clone(),
@@ -242,9 +242,9 @@ pub fn load_stimulus(
     let plan = CameraPlan::new(&mesh, &protocol).map_err(StimulusLoadError::Stage)?;
     let fps = protocol.video.fps;
     let timeline =
-        std::fs::read_to_string(&timeline_path).map_err(|source| StimulusLoadError::Read {
+        std::fs::read_to_string(&timeline_path).map_err(|error| StimulusLoadError::Read {
             path: timeline_path.clone(),
-            source,
+            error,
         })?;
     let mut lines = timeline.lines();
     if lines.next() != Some(timeline_header().as_str()) {
