@@ -1,7 +1,9 @@
 //! study.toml: what a study is made of, with paths and globs relative to the file itself.
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use super::error::{OrStage, StudyError};
+
+type Result<T, E = StudyError> = std::result::Result<T, E>;
 use serde::Deserialize;
 
 use crate::protocol::Protocol;
@@ -82,7 +84,9 @@ fn expand(
         let full = base.join(p);
         let text = full.to_string_lossy().to_string();
         let mut hits: Vec<PathBuf> = glob::glob(&text)
-            .with_context(|| format!("{what} pattern `{p}` is not a valid glob"))?
+            .map_err(|e| {
+                StudyError::Invalid(format!("{what} pattern `{p}` is not a valid glob: {e}"))
+            })?
             .filter_map(|e| e.ok())
             .filter(|p| p.is_file())
             .collect();
@@ -99,17 +103,21 @@ fn expand(
 impl Study {
     /// Reads and resolves study.toml; errors name the file, line and column.
     pub fn load(path: &Path) -> Result<Study> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read {}", path.display()))?;
-        let file: StudyFile = toml::from_str(&text)
-            .map_err(|e| anyhow::anyhow!("{}: {}", path.display(), located(&text, &e)))?;
+        let config_error = |message: String| StudyError::Config {
+            path: path.to_path_buf(),
+            message,
+        };
+        let text = std::fs::read_to_string(path).map_err(StudyError::io("read", &path))?;
+        let file: StudyFile =
+            toml::from_str(&text).map_err(|e| config_error(located(&text, &e)))?;
         let base = path
             .parent()
             .filter(|p| !p.as_os_str().is_empty())
             .unwrap_or(Path::new("."))
             .to_path_buf();
         let (protocol, protocol_text, protocol_name) =
-            Protocol::load_or_builtin(file.protocol.as_ref().map(|p| base.join(p)).as_deref())?;
+            Protocol::load_or_builtin(file.protocol.as_ref().map(|p| base.join(p)).as_deref())
+                .or_stage()?;
         let mut unmatched = Vec::new();
         let mesh_paths = expand(&base, &file.meshes, "meshes", &mut unmatched)?;
         let mut meshes: Vec<StudyMesh> = mesh_paths
@@ -122,29 +130,26 @@ impl Study {
             .collect();
         meshes.sort_by(|a, b| a.name.cmp(&b.name).then(a.path.cmp(&b.path)));
         if let Some(w) = meshes.windows(2).find(|w| w[0].name == w[1].name) {
-            bail!(
-                "{}: two meshes are named `{}` ({} and {}): a video is mapped to its mesh by name, so names must differ",
-                path.display(),
+            return Err(config_error(format!(
+                "two meshes are named `{}` ({} and {}): a video is mapped to its mesh by name, so names must differ",
                 w[0].name,
                 w[0].path.display(),
                 w[1].path.display()
-            );
+            )));
         }
         if meshes.is_empty() {
-            bail!(
-                "{}: `meshes` matched no mesh file (.obj, .ply, .off, optionally .gz)",
-                path.display()
-            );
+            return Err(config_error(
+                "`meshes` matched no mesh file (.obj, .ply, .off, optionally .gz)".into(),
+            ));
         }
         if file.methods.is_empty() {
-            bail!(
-                "{}: `methods` is empty; name at least one (sms, mc, ms, si, sri, mr, gr, up, centre, gaze)",
-                path.display()
-            );
+            return Err(config_error(
+                "`methods` is empty; name at least one (sms, mc, ms, si, sri, mr, gr, up, centre, gaze)".into(),
+            ));
         }
         let rarity = RarityParams::default()
             .with_settings(&file.set)
-            .map_err(|e| anyhow::anyhow!("{}: `set`: {e}", path.display()))?;
+            .map_err(|e| config_error(format!("`set`: {e}")))?;
         let recordings = expand(&base, &file.recordings, "recordings", &mut unmatched)?;
         Ok(Study {
             file: path.to_path_buf(),

@@ -3,7 +3,9 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use super::error::{OrStage, StudyError};
+
+type Result<T, E = StudyError> = std::result::Result<T, E>;
 
 use crate::file_bytes::create_output_dir;
 use crate::gaze::ingest::{ingest_files, write_ingest, IngestParams};
@@ -61,16 +63,16 @@ pub fn run_demo(
 ) -> Result<DemoOutcome> {
     let t_all = Instant::now();
     let out = inputs.output;
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    std::fs::create_dir_all(out).map_err(StudyError::io("create", &out))?;
     let mut steps = StepLog(Vec::new());
     let mesh_path = out.join("bunny.ply");
-    std::fs::write(&mesh_path, inputs.mesh_bytes)
-        .with_context(|| format!("cannot write {}", s(&mesh_path)))?;
+    std::fs::write(&mesh_path, inputs.mesh_bytes).map_err(StudyError::io("write", &mesh_path))?;
     let protocol_path = out.join("hu2020.toml");
     std::fs::write(&protocol_path, inputs.protocol_toml)
-        .with_context(|| format!("cannot write {}", s(&protocol_path)))?;
-    let (mesh, load) = parse_mesh_bytes(inputs.mesh_bytes, &mesh_path, MeshFormat::Ply)?;
-    let protocol = Protocol::from_toml(inputs.protocol_toml, "hu2020.toml")?;
+        .map_err(StudyError::io("write", &protocol_path))?;
+    let (mesh, load) =
+        parse_mesh_bytes(inputs.mesh_bytes, &mesh_path, MeshFormat::Ply).or_stage()?;
+    let protocol = Protocol::from_toml(inputs.protocol_toml, "hu2020.toml").or_stage()?;
     let stage = DemoStage {
         inputs,
         mesh: &mesh,
@@ -98,7 +100,7 @@ pub fn run_demo(
     say("7/7 scoring against the ground truth and writing report.html");
     let t = Instant::now();
     let seen = crate::stimulus::hold_views::hold_view_exposure(&mesh, &protocol)
-        .map_err(anyhow::Error::msg)?
+        .or_stage()?
         .seen();
     let (score, plots) = score_step(&mesh, &seen, &truth, &maps, &out.join("score"), progress)?;
     steps.done(
@@ -120,7 +122,8 @@ pub fn run_demo(
             steps: &steps.0,
             total_seconds: t_all.elapsed().as_secs_f64(),
         },
-    )?;
+    )
+    .or_stage()?;
     Ok(DemoOutcome {
         report,
         score,
@@ -176,7 +179,7 @@ impl DemoStage<'_> {
             },
             self.progress,
         )
-        .map_err(anyhow::Error::msg)?;
+        .or_stage()?;
         steps.done(
             "stimulus",
             t,
@@ -189,7 +192,7 @@ impl DemoStage<'_> {
         ));
         let t = Instant::now();
         let rec_dir = out.join("recordings");
-        let stim = load_stimulus(&stim_dir, None).map_err(anyhow::Error::msg)?;
+        let stim = load_stimulus(&stim_dir, None).or_stage()?;
         simulate_step(&stim, &rec_dir, inputs.subjects, inputs.seed)?;
         steps.done(
             "simulate",
@@ -226,19 +229,22 @@ impl DemoStage<'_> {
             self_check: true,
             ..ProjectOptions::default()
         };
-        let run = project_files(stim, &[ing_dir.join("fixations.csv")], &options, &Silent)?;
-        write_projection(&proj_dir, &run)?;
+        let run =
+            project_files(stim, &[ing_dir.join("fixations.csv")], &options, &Silent).or_stage()?;
+        write_projection(&proj_dir, &run).or_stage()?;
         steps.done("project", t, "projection/projected.csv, project.json");
         let pj: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(proj_dir.join("project.json"))?)?;
+            serde_json::from_slice(&std::fs::read(proj_dir.join("project.json")).or_stage()?)
+                .or_stage()?;
         say(&projection_summary(&pj));
 
         say("5/7 building the ground truth and the split-half human ceiling");
         let t = Instant::now();
         let truth_dir = out.join("truth");
-        let projections = read_projections(stim, &[proj_dir.join("projected.csv")])?;
-        let truth = build_truth(stim, projections, &TruthParams::default(), self.progress)?;
-        write_truth(&truth_dir, stim, &truth)?;
+        let projections = read_projections(stim, &[proj_dir.join("projected.csv")]).or_stage()?;
+        let truth =
+            build_truth(stim, projections, &TruthParams::default(), self.progress).or_stage()?;
+        write_truth(&truth_dir, stim, &truth).or_stage()?;
         steps.done(
             "truth",
             t,
@@ -264,30 +270,30 @@ fn simulate_step(stim: &LoadedStimulus, rec_dir: &Path, subjects: usize, seed: u
         &stimulus_name,
         &params,
     )
-    .map_err(anyhow::Error::msg)?;
+    .or_stage()?;
     write_simulation(
         rec_dir,
         &simulated,
         vec![
-            InputFile::hash(&stim.manifest_path)?,
-            InputFile::hash(&stim.mesh_path)?,
+            InputFile::hash(&stim.manifest_path).or_stage()?,
+            InputFile::hash(&stim.mesh_path).or_stage()?,
         ],
         &stimulus_name,
         "extremity (distance from the centroid)",
         &params,
         RecordingFormat::Smi,
     )
-    .map_err(anyhow::Error::msg)
+    .or_stage()
 }
 
 /// Step 3: the subjects' format-A recordings through ingest with the protocol's rules.
 fn ingest_step(protocol: &Protocol, rec_dir: &Path, ing_dir: &Path, subjects: usize) -> Result<()> {
-    let params = IngestParams::from_protocol(protocol, None).map_err(anyhow::Error::msg)?;
+    let params = IngestParams::from_protocol(protocol, None).or_stage()?;
     let paths: Vec<PathBuf> = (1..=subjects)
         .map(|k| rec_dir.join(format!("s{k:02}_samples.txt")))
         .collect();
-    let (files, inputs) = ingest_files(&paths, &params).map_err(anyhow::Error::msg)?;
-    write_ingest(ing_dir, &files, inputs, protocol, &params).map_err(anyhow::Error::msg)?;
+    let (files, inputs) = ingest_files(&paths, &params).or_stage()?;
+    write_ingest(ing_dir, &files, inputs, protocol, &params).or_stage()?;
     Ok(())
 }
 
@@ -335,14 +341,15 @@ fn saliency_step(
             mesh_path,
             mesh,
             load,
-            InputFile::hash(mesh_path)?,
+            InputFile::hash(mesh_path).or_stage()?,
             method,
             &SmsParams::default(),
             &crate::saliency::Viewing::builtin(),
             MapOutputs::default(),
             &sal_dir.join(format!("bunny_{}", method.name())),
             &Silent,
-        )?;
+        )
+        .or_stage()?;
         seconds.push((method.name().to_string(), r.seconds));
         ginis.push((method.name(), r.gini));
         maps.push((method.name().to_string(), r.values));
@@ -359,7 +366,7 @@ fn score_step(
     score_dir: &Path,
     bars: &dyn Progress,
 ) -> Result<(MeshScore, Vec<String>)> {
-    create_output_dir(score_dir)?;
+    create_output_dir(score_dir).or_stage()?;
     let score = score_mesh(
         mesh,
         &truth.truth,
@@ -368,14 +375,15 @@ fn score_step(
         Some(seen),
         bars,
     )
-    .map_err(anyhow::Error::msg)?;
+    .or_stage()?;
     let mut csv = format!("{SCORE_CSV_HEADER}\n").into_bytes();
-    write_score_rows(&mut csv, "bunny", &score.rows)?;
-    std::fs::write(score_dir.join("score.csv"), csv)?;
+    write_score_rows(&mut csv, "bunny", &score.rows).or_stage()?;
+    std::fs::write(score_dir.join("score.csv"), csv).or_stage()?;
     std::fs::write(
         score_dir.join("score.json"),
-        serde_json::to_string_pretty(&score.summaries)? + "\n",
-    )?;
-    let plots = write_score_plots(&score_dir.join("score"), "bunny", maps, &score)?;
+        serde_json::to_string_pretty(&score.summaries).or_stage()? + "\n",
+    )
+    .or_stage()?;
+    let plots = write_score_plots(&score_dir.join("score"), "bunny", maps, &score).or_stage()?;
     Ok((score, plots))
 }

@@ -7,7 +7,9 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
-use anyhow::{Context, Result};
+use super::error::{OrStage, StudyError};
+
+type Result<T, E = StudyError> = std::result::Result<T, E>;
 use rayon::prelude::*;
 use serde::Serialize;
 
@@ -102,19 +104,19 @@ fn stamped(dir: &Path, key: &str) -> bool {
 
 fn stamp(dir: &Path, key: &str) -> Result<()> {
     let p = dir.join(STAMP);
-    std::fs::write(&p, format!("{key}\n")).with_context(|| format!("cannot write {}", p.display()))
+    std::fs::write(&p, format!("{key}\n")).map_err(StudyError::io("write", &p))
 }
 
 fn hash_file(p: &Path) -> Result<String> {
     Ok(InputFile::hash(p)
-        .with_context(|| format!("cannot read {}", p.display()))?
+        .map_err(StudyError::io("read", &p))?
         .sha256)
 }
 
 /// Runs a study (see `meshgaze study run --help`).
 pub fn run_study(study: &Study, options: &RunOptions, progress: &dyn Progress) -> Result<StudyRun> {
     let out = &study.output;
-    create_output_dir(out)?;
+    create_output_dir(out).or_stage()?;
     let mut problems: Vec<String> = study.unmatched.clone();
     let meshes: Vec<&StudyMesh> = study
         .meshes
@@ -124,7 +126,7 @@ pub fn run_study(study: &Study, options: &RunOptions, progress: &dyn Progress) -
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(options.jobs.max(1))
         .build()
-        .context("cannot start the worker threads")?;
+        .map_err(|e| StudyError::Invalid(format!("cannot start the worker threads: {e}")))?;
     let protocol_hash = sha256_hex(study.protocol_text.as_bytes());
 
     // 1. Stimuli: every mesh of the shard, whether or not recordings exist yet.
@@ -226,20 +228,20 @@ fn finish(
     };
     merge_scores(study)?;
     write_study_json(study, &run)?;
-    write_study_report(&study.output, &run.problems)?;
+    write_study_report(&study.output, &run.problems).or_stage()?;
     let log = study.output.join("run.log");
-    let mut w =
-        std::fs::File::create(&log).with_context(|| format!("cannot create {}", log.display()))?;
+    let mut w = std::fs::File::create(&log).map_err(StudyError::io("create", &log))?;
     for s in &run.steps {
         // Seconds before the detail, which may be long free text.
         writeln!(
             w,
             "{}\t{}\t{}\t{:.3}\t{}",
             s.mesh, s.step, s.outcome, s.seconds, s.detail
-        )?;
+        )
+        .or_stage()?;
     }
     for p in &run.problems {
-        writeln!(w, "problem\t{p}")?;
+        writeln!(w, "problem\t{p}").or_stage()?;
     }
     Ok(run)
 }
@@ -247,20 +249,17 @@ fn finish(
 /// OUT/study.json: the provenance of every input (study.toml, protocol, meshes, recordings),
 /// the methods and this run's steps and problems.
 fn write_study_json(study: &Study, run: &StudyRun) -> Result<()> {
-    let mut inputs = vec![InputFile::hash(&study.file)
-        .with_context(|| format!("cannot read {}", study.file.display()))?];
+    let mut inputs =
+        vec![InputFile::hash(&study.file).map_err(StudyError::io("read", &study.file))?];
     inputs.push(InputFile::of_bytes(
         &format!("protocol {}", study.protocol_name),
         study.protocol_text.as_bytes(),
     ));
     for m in &study.meshes {
-        inputs.push(
-            InputFile::hash(&m.path)
-                .with_context(|| format!("cannot read {}", m.path.display()))?,
-        );
+        inputs.push(InputFile::hash(&m.path).map_err(StudyError::io("read", &m.path))?);
     }
     for r in &study.recordings {
-        inputs.push(InputFile::hash(r).with_context(|| format!("cannot read {}", r.display()))?);
+        inputs.push(InputFile::hash(r).map_err(StudyError::io("read", &r))?);
     }
     #[derive(Serialize)]
     struct StudyJson<'a> {
@@ -281,8 +280,8 @@ fn write_study_json(study: &Study, run: &StudyRun) -> Result<()> {
         run,
     };
     let path = study.output.join("study.json");
-    std::fs::write(&path, serde_json::to_vec_pretty(&json)?)
-        .with_context(|| format!("cannot write {}", path.display()))
+    std::fs::write(&path, serde_json::to_vec_pretty(&json).or_stage()?)
+        .map_err(StudyError::io("write", &path))
 }
 
 fn log(mesh: &str, step: &str, outcome: &'static str, detail: impl Into<String>) -> StepLog {
@@ -306,12 +305,12 @@ fn ensure_stimulus(study: &Study, m: &StudyMesh, protocol_hash: &str) -> StepLog
         // Once recordings exist, the videos were shown: a mesh or protocol that changed since
         // cannot get a new video, or its fixations would land on a shape nobody saw.
         if dir.join(STAMP).exists() && !study.recordings.is_empty() {
-            anyhow::bail!(
+            return Err(StudyError::Changed(format!(
                 "{} (or the protocol) changed after its video was rendered and shown: the subjects saw the old one, so it is not re-rendered and its fixations are not projected; restore the old file, or start a new study for the new mesh",
                 m.path.display()
-            );
+            )));
         }
-        let (mesh, _) = load_mesh(&m.path)?;
+        let (mesh, _) = load_mesh(&m.path).or_stage()?;
         render_stimulus(
             &m.path,
             &mesh,
@@ -326,7 +325,7 @@ fn ensure_stimulus(study: &Study, m: &StudyMesh, protocol_hash: &str) -> StepLog
             },
             &Silent,
         )
-        .map_err(anyhow::Error::msg)?;
+        .or_stage()?;
         stamp(&dir, &key)?;
         Ok("done")
     };
@@ -343,8 +342,10 @@ fn ingest_params(study: &Study) -> Result<IngestParams> {
         .stimulus_pattern
         .as_deref()
         .map(|p| (p, study.stimulus_end_pattern.as_deref()));
-    IngestParams::from_protocol(&study.protocol, pattern)
-        .map_err(|e| anyhow::anyhow!("{}: {e}", study.file.display()))
+    IngestParams::from_protocol(&study.protocol, pattern).map_err(|message| StudyError::Config {
+        path: study.file.clone(),
+        message,
+    })
 }
 
 /// Ingests every recording into OUT/ingest; a recording that cannot be read is reported and
@@ -382,25 +383,24 @@ fn ingest_all(study: &Study, protocol_hash: &str) -> Result<(StepLog, Vec<String
             Err(e) => problems.push(format!("recording left out: {e}")),
         }
     }
-    if let Err(e) = check_one_source_per_subject(&files) {
-        anyhow::bail!("{e}");
-    }
+    check_one_source_per_subject(&files).map_err(StudyError::Invalid)?;
     for f in &files {
         problems.extend(f.warnings.iter().cloned());
     }
     let inputs = files
         .iter()
         .map(|f| InputFile::hash(&f.path))
-        .collect::<std::io::Result<Vec<_>>>()?;
-    let (fixations, _) =
-        write_ingest(&dir, &files, inputs, &study.protocol, &params).map_err(anyhow::Error::msg)?;
+        .collect::<std::io::Result<Vec<_>>>()
+        .or_stage()?;
+    let (fixations, _) = write_ingest(&dir, &files, inputs, &study.protocol, &params).or_stage()?;
     std::fs::write(
         &problems_file,
         problems
             .iter()
             .map(|p| format!("{p}\n"))
             .collect::<String>(),
-    )?;
+    )
+    .or_stage()?;
     stamp(&dir, &key)?;
     Ok((
         log(
@@ -415,8 +415,7 @@ fn ingest_all(study: &Study, protocol_hash: &str) -> Result<(StepLog, Vec<String
 
 /// The distinct stimulus names in a fixations.csv.
 fn stimuli_in(fixations_csv: &Path) -> Result<Vec<String>> {
-    let rows = crate::gaze::fixation_table::read_fixations_csv(fixations_csv)
-        .map_err(anyhow::Error::msg)?;
+    let rows = crate::gaze::fixation_table::read_fixations_csv(fixations_csv).or_stage()?;
     let mut names: Vec<String> = rows
         .into_iter()
         .map(|r| r.stimulus)
@@ -503,20 +502,20 @@ fn load_unchanged_stimulus(study: &Study, m: &StudyMesh) -> Result<LoadedStimulu
     let stim_dir = study.output.join("stimuli").join(&m.name);
     let stim = load_stimulus(&stim_dir, None).map_err(|e| {
         if e.is_changed_after_rendering() {
-            anyhow::anyhow!(
+            StudyError::Changed(format!(
                 "{} changed after its video was rendered: the subjects saw the old mesh, so its fixations cannot be projected onto this one ({e})",
                 m.path.display()
-            )
+            ))
         } else {
-            anyhow::anyhow!(e)
+            StudyError::Stage(e.to_string())
         }
     })?;
     if stim.mesh_sha256 != hash_file(&m.path)? {
-        anyhow::bail!(
+        return Err(StudyError::Changed(format!(
             "{} changed after its video was shown: the subjects saw the old mesh (manifest {}), so its fixations are not projected onto the new one; restore the old file or start a new study",
             m.path.display(),
             stim.manifest_path.display()
-        );
+        )));
     }
     Ok(stim)
 }
@@ -545,8 +544,9 @@ fn project_step(
             self_check: true,
             ..ProjectOptions::default()
         };
-        let run = project_files(stim, &[fixations_csv.to_path_buf()], &options, &Silent)?;
-        write_projection(&proj_dir, &run)?;
+        let run =
+            project_files(stim, &[fixations_csv.to_path_buf()], &options, &Silent).or_stage()?;
+        write_projection(&proj_dir, &run).or_stage()?;
         stamp(&proj_dir, &key)?;
         logs.push(log(
             &m.name,
@@ -571,9 +571,9 @@ fn truth_step(
     if stamped(&truth_dir, &key) {
         logs.push(log(&m.name, "truth", "up-to-date", ""));
     } else {
-        let projections = read_projections(stim, &[projected.to_path_buf()])?;
-        let truth = build_truth(stim, projections, &TruthParams::default(), &Silent)?;
-        write_truth(&truth_dir, stim, &truth)?;
+        let projections = read_projections(stim, &[projected.to_path_buf()]).or_stage()?;
+        let truth = build_truth(stim, projections, &TruthParams::default(), &Silent).or_stage()?;
+        write_truth(&truth_dir, stim, &truth).or_stage()?;
         stamp(&truth_dir, &key)?;
         logs.push(log(
             &m.name,
@@ -610,7 +610,8 @@ fn saliency_step(
         let key = key_of(&parts);
         if stamped(&stamp_dir, &key) {
             logs.push(log(&m.name, &step, "up-to-date", ""));
-            let values = read_map(&prefix.with_extension("csv"), stim.mesh.positions.len())?;
+            let values =
+                read_map(&prefix.with_extension("csv"), stim.mesh.positions.len()).or_stage()?;
             maps.push((method.name().to_string(), values));
             continue;
         }
@@ -618,7 +619,7 @@ fn saliency_step(
             &stim.mesh_path,
             &stim.mesh,
             &stim.mesh_report,
-            InputFile::hash(&stim.mesh_path)?,
+            InputFile::hash(&stim.mesh_path).or_stage()?,
             method,
             &SmsParams::default(),
             &crate::saliency::Viewing {
@@ -629,8 +630,9 @@ fn saliency_step(
             MapOutputs::default(),
             &prefix,
             &Silent,
-        )?;
-        create_output_dir(&stamp_dir)?;
+        )
+        .or_stage()?;
+        create_output_dir(&stamp_dir).or_stage()?;
         stamp(&stamp_dir, &key)?;
         logs.push(log(&m.name, &step, "done", ""));
         maps.push((method.name().to_string(), r.values));
@@ -672,9 +674,10 @@ fn score_step(
         logs.push(log(&m.name, "score", "up-to-date", ""));
         return Ok(());
     }
-    let truth = crate::truth::load_ground_truth(&truth_csv, stim.mesh.positions.len(), 0.05)?;
+    let truth =
+        crate::truth::load_ground_truth(&truth_csv, stim.mesh.positions.len(), 0.05).or_stage()?;
     let seen = hold_view_exposure(&stim.mesh, &stim.protocol)
-        .map_err(anyhow::Error::msg)?
+        .or_stage()?
         .seen();
     let score = score_mesh(
         &stim.mesh,
@@ -684,23 +687,21 @@ fn score_step(
         Some(&seen),
         &Silent,
     )
-    .map_err(anyhow::Error::msg)?;
-    create_output_dir(&score_dir.join("chance"))?;
+    .or_stage()?;
+    create_output_dir(&score_dir.join("chance")).or_stage()?;
     let mut bytes = Vec::new();
-    write_score_rows(&mut bytes, &m.name, &score.rows)?;
-    std::fs::write(&score_file, bytes)
-        .with_context(|| format!("cannot write {}", score_file.display()))?;
-    write_chance_draws(&chance_file, &score.chance_auc_judd)?;
+    write_score_rows(&mut bytes, &m.name, &score.rows).or_stage()?;
+    std::fs::write(&score_file, bytes).map_err(StudyError::io("write", &score_file))?;
+    write_chance_draws(&chance_file, &score.chance_auc_judd).or_stage()?;
     let density =
-        crate::truth::read_density(&truth_dir.join("density.csv"), stim.mesh.positions.len())?;
+        crate::truth::read_density(&truth_dir.join("density.csv"), stim.mesh.positions.len())
+            .or_stage()?;
     let truth_json_path = truth_dir.join("truth.json");
     let truth_json: serde_json::Value = serde_json::from_slice(
-        &std::fs::read(&truth_json_path)
-            .with_context(|| format!("cannot read {}", truth_json_path.display()))?,
+        &std::fs::read(&truth_json_path).map_err(StudyError::io("read", &truth_json_path))?,
     )
-    .with_context(|| format!("{}: not JSON", truth_json_path.display()))?;
-    let fixations =
-        crate::projection::table::read_projected_csv(&truth_csv).map_err(anyhow::Error::msg)?;
+    .map_err(|e| StudyError::Stage(format!("{}: not JSON: {e}", truth_json_path.display())))?;
+    let fixations = crate::projection::table::read_projected_csv(&truth_csv).or_stage()?;
     let n = &m.name;
     let mut links = vec![
         (
@@ -743,8 +744,9 @@ fn score_step(
             fixations: &fixations,
             links: &links,
         },
-    )?;
-    create_output_dir(&stamp_dir)?;
+    )
+    .or_stage()?;
+    create_output_dir(&stamp_dir).or_stage()?;
     stamp(&stamp_dir, &key)?;
     logs.push(log(&m.name, "score", "done", ""));
     Ok(())
@@ -760,7 +762,7 @@ pub fn merge_study(study: &Study) -> Result<(usize, PathBuf)> {
         .lines()
         .filter_map(|l| l.strip_prefix("problem\t").map(str::to_string))
         .collect();
-    let report = write_study_report(&study.output, &problems)?;
+    let report = write_study_report(&study.output, &problems).or_stage()?;
     Ok((merged, report))
 }
 
@@ -779,9 +781,9 @@ pub fn merge_scores(study: &Study) -> Result<usize> {
     }
     let mut out = format!("{SCORE_CSV_HEADER}\n").into_bytes();
     for p in parts.values() {
-        out.extend(std::fs::read(p).with_context(|| format!("cannot read {}", p.display()))?);
+        out.extend(std::fs::read(p).map_err(StudyError::io("read", &p))?);
     }
     let target = study.output.join("scores.csv");
-    std::fs::write(&target, out).with_context(|| format!("cannot write {}", target.display()))?;
+    std::fs::write(&target, out).map_err(StudyError::io("write", &target))?;
     Ok(parts.len())
 }
