@@ -25,7 +25,7 @@ use super::recording::{
     Event, EventKind, Eye, EyeSample, GazeError, GazeFormat, Header, Message, Recording,
     RowAccount, Sample,
 };
-use super::text::{decode, lines, number, split, Separator};
+use super::text::{decode, lines, number, split_into, split_wanted, Separator};
 
 /// Which Tobii exporter wrote the table.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -71,6 +71,49 @@ struct Columns {
     screen: Option<[usize; 2]>,
     screen_text: Option<usize>,
     recording_duration: Option<usize>,
+}
+
+impl Columns {
+    /// Which of `n` columns the reader looks at (and the one past the last, where Studio's
+    /// trailing TAB puts an empty field).
+    fn wanted(&self, n: usize) -> Vec<bool> {
+        let pairs = [
+            self.gaze,
+            self.left,
+            self.right,
+            self.fixation,
+            self.media_pos,
+            self.screen,
+        ];
+        let singles = [
+            Some(self.time),
+            self.sensor,
+            self.event,
+            self.event_value,
+            self.validity[0],
+            self.validity[1],
+            self.pupil[0],
+            self.pupil[1],
+            self.movement,
+            self.movement_index,
+            self.duration,
+            self.participant,
+            self.screen_text,
+            self.recording_duration,
+            Some(n),
+        ];
+        let mut wanted = vec![false; n + 1];
+        let used = pairs
+            .into_iter()
+            .flatten()
+            .flatten()
+            .chain(singles.into_iter().flatten())
+            .chain(self.stimulus.iter().copied());
+        for i in used.filter(|&i| i <= n) {
+            wanted[i] = true;
+        }
+        wanted
+    }
 }
 
 /// The column called `name`, or `name [unit]` / `name (unit)`.
@@ -159,10 +202,17 @@ fn columns_of(names: &[String], dialect: Dialect, path: &str) -> Result<Columns,
 
 /// Fields of a line; a CSV field in double quotes may hold the separator.
 fn fields(line: &str, sep: Separator) -> Vec<(usize, &str)> {
-    if sep != Separator::Comma || !line.contains('"') {
-        return split(line, sep);
-    }
     let mut out = Vec::new();
+    fields_into(line, sep, &mut out);
+    out
+}
+
+/// [`fields`] into a buffer kept across rows.
+fn fields_into<'a>(line: &'a str, sep: Separator, out: &mut Vec<(usize, &'a str)>) {
+    if sep != Separator::Comma || !line.contains('"') {
+        return split_into(line, sep, out);
+    }
+    out.clear();
     let bytes = line.as_bytes();
     let (mut i, mut start, mut quoted) = (0, 0, false);
     while i <= bytes.len() {
@@ -180,13 +230,16 @@ fn fields(line: &str, sep: Separator) -> Vec<(usize, &str)> {
         }
         i += 1;
     }
-    out
 }
 
 /// A row's time stamp, in the file's unit.
 fn raw_time(field: &str) -> Option<f64> {
     let f = field.trim();
-    let v: f64 = f.replace(',', ".").parse().ok()?;
+    let v: f64 = match f.parse() {
+        Ok(v) => v,
+        Err(_) if f.contains(',') => f.replace(',', ".").parse().ok()?,
+        Err(_) => return None,
+    };
     (v.is_finite() && v >= 0.0).then_some(v)
 }
 
@@ -279,17 +332,29 @@ impl Reader<'_> {
         }))
     }
 
-    fn row(&mut self, no: usize, line: &str) {
+    fn row<'l>(
+        &mut self,
+        no: usize,
+        line: &'l str,
+        wanted: &[bool],
+        f: &mut Vec<(usize, &'l str)>,
+    ) {
         if line.trim().is_empty() {
             self.rows.blank_lines += 1;
             return;
         }
-        let f = fields(line, self.sep);
+        let count = if self.sep == Separator::Comma && line.contains('"') {
+            fields_into(line, self.sep, f);
+            f.len()
+        } else {
+            split_wanted(line, self.sep, wanted, f)
+        };
+        let f = &f[..count.min(f.len())];
         let n = self.names.len();
         // Studio ends lines with a TAB (an empty last column): one field more or fewer is that.
-        let ok_len = f.len() == n
-            || (f.len() == n + 1 && f[n].1.trim().is_empty())
-            || (f.len() + 1 == n && self.names[n - 1].is_empty());
+        let ok_len = count == n
+            || (count == n + 1 && f[n].1.trim().is_empty())
+            || (count + 1 == n && self.names[n - 1].is_empty());
         if !ok_len {
             let reason = format!("row with a field count other than the header's {n}");
             self.rows.reject(&reason, no, 1, line);
@@ -691,8 +756,10 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         start_events: BTreeMap::new(),
         other_sensors: BTreeMap::new(),
     };
+    let wanted = r.c.wanted(r.names.len());
+    let mut fields = Vec::with_capacity(r.names.len() + 1);
     for &(no, line) in &all[1..] {
-        r.row(no, line);
+        r.row(no, line, &wanted, &mut fields);
     }
     r.header.sample_rate_hz = super::recording::median_rate_hz(&r.samples, 1);
     Ok(r.finish(time_note))
