@@ -3,7 +3,9 @@
 //! `-` for missing values; TAB natively, other separators when re-exported (the shared ETG
 //! file is a pandas comma re-export). Times are milliseconds since the recording started and
 //! become integer microseconds.
-use super::recording::{EyeSample, GazeError, GazeFormat, Header, Recording, RowAccount, Sample};
+use super::recording::{
+    EyeSample, GazeError, GazeFormat, Header, Recording, RowAccount, Sample, SharedNames,
+};
 use super::text::{decode, header_row, lines, number, table_row, Separator};
 
 /// Where an eye's X, Y and (optional) pupil columns are.
@@ -62,6 +64,7 @@ struct Row<'a, 'r> {
     sep: Separator,
     columns: &'a [String],
     rows: &'r mut RowAccount,
+    names: &'r mut SharedNames,
 }
 
 impl Row<'_, '_> {
@@ -147,7 +150,9 @@ impl Row<'_, '_> {
             binocular_event: self.text(cat_b),
             left_event: self.text(cat_l),
             right_event: self.text(cat_r),
-            stimulus: self.text(cols.stimulus),
+            stimulus: cols
+                .stimulus
+                .map(|i| self.names.of(self.fields[i].1.trim())),
         })
     }
 }
@@ -164,6 +169,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     };
     let mut header = Header::default();
     let mut samples = Vec::new();
+    let mut names = SharedNames::default();
     for &(no, line) in &all[1..] {
         let Some(f) = table_row(line, no, sep, columns.len(), &mut rows) else {
             continue;
@@ -175,6 +181,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             sep,
             columns: &columns,
             rows: &mut rows,
+            names: &mut names,
         };
         let Some(sample) = row.sample(&cols) else {
             continue;

@@ -16,7 +16,7 @@ use std::collections::BTreeMap;
 
 use super::recording::{
     Event, EventKind, Eye, EyeSample, GazeError, GazeFormat, Header, Message, Recording,
-    RowAccount, Sample,
+    RowAccount, Sample, SharedNames,
 };
 use super::text::{decode, lines, number, split, split_wanted, Separator};
 
@@ -300,6 +300,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     let n = names.len();
     let wanted = c.wanted(n);
     let mut buffer = Vec::with_capacity(n + 1);
+    let mut stimulus_names = SharedNames::default();
     for &(no, line) in &all[1..] {
         if line.trim().is_empty() {
             rows.blank_lines += 1;
@@ -343,9 +344,12 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         if let Some(k) = count {
             counts.push(k);
         }
-        let stimulus = text_of(c.media).map(str::to_string);
-        if let Some(s) = stimulus.as_ref().filter(|s| !first_named.contains_key(*s)) {
-            first_named.insert(s.clone(), t_us);
+        let stimulus = text_of(c.media).map(|t| stimulus_names.of(t));
+        if let Some(s) = stimulus
+            .as_deref()
+            .filter(|s| !first_named.contains_key(*s))
+        {
+            first_named.insert(s.to_string(), t_us);
         }
         if let Some(u) = text_of(c.user) {
             messages.push(Message {
@@ -363,7 +367,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
                 duration_us,
                 x,
                 y,
-                stimulus: stimulus.clone(),
+                stimulus: stimulus.as_deref().map(str::to_string),
             };
             add_fixation_row(&mut fixations, id as u64, (t_us, x, y, duration_us), open);
         }

@@ -2,7 +2,7 @@
 //! line found by content (`Time` and `Type`), then `SMP` rows (one value per column) and `MSG`
 //! rows (`Time MSG Trial # Message: text`). Columns are picked by name, never by position.
 use super::recording::{
-    EyeSample, GazeError, GazeFormat, Header, Message, Recording, RowAccount, Sample,
+    EyeSample, GazeError, GazeFormat, Header, Message, Recording, RowAccount, Sample, SharedNames,
 };
 use super::text::{integer, lines, number, split, Separator};
 
@@ -201,6 +201,7 @@ fn parse_rows(chunk: &[(usize, &str)], layout: &Layout) -> (Vec<Sample>, Vec<Mes
     let mut rows = RowAccount::default();
     let mut samples = Vec::new();
     let mut messages = Vec::new();
+    let mut names = SharedNames::default();
     'rows: for &(no, line) in chunk {
         if line.trim().is_empty() {
             rows.blank_lines += 1;
@@ -281,7 +282,7 @@ fn parse_rows(chunk: &[(usize, &str)], layout: &Layout) -> (Vec<Sample>, Vec<Mes
                     binocular_event: None,
                     left_event,
                     right_event,
-                    stimulus: stimulus_c.map(|i| f[i].1.trim().to_string()),
+                    stimulus: stimulus_c.map(|i| names.of(f[i].1.trim())),
                 });
                 rows.samples += 1;
             }

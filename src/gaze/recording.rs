@@ -173,7 +173,29 @@ pub struct Sample {
     pub left_event: Option<String>,
     pub right_event: Option<String>,
     /// BeGaze's `Stimulus` column, when exported.
-    pub stimulus: Option<String>,
+    pub stimulus: Option<std::sync::Arc<str>>,
+}
+
+/// Consecutive rows naming one stimulus share one copy of its name: a reader asks for the
+/// name of each row and gets the previous row's copy when the text is the same (an export
+/// repeats the stimulus on each of its ~1,000 rows a second).
+#[derive(Debug, Default)]
+pub(crate) struct SharedNames {
+    last: Option<std::sync::Arc<str>>,
+}
+
+impl SharedNames {
+    /// The shared copy of `text`.
+    pub(crate) fn of(&mut self, text: &str) -> std::sync::Arc<str> {
+        match &self.last {
+            Some(last) if **last == *text => last.clone(),
+            _ => {
+                let name: std::sync::Arc<str> = std::sync::Arc::from(text);
+                self.last = Some(name.clone());
+                name
+            }
+        }
+    }
 }
 
 /// The sampling rate from the median positive interval between consecutive samples, rounded

@@ -20,10 +20,11 @@
 //! display pixels (Pro Lab's DACSpx, Studio's ADCSpx; Studio's fixation point is in media
 //! coordinates and is moved by the media's position). The screen is `Recording resolution`.
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use super::recording::{
     Event, EventKind, Eye, EyeSample, GazeError, GazeFormat, Header, Message, Recording,
-    RowAccount, Sample,
+    RowAccount, Sample, SharedNames,
 };
 use super::text::{decode, lines, number, split_into, split_wanted, Separator};
 
@@ -252,7 +253,7 @@ struct OpenFixation {
     x: Option<f64>,
     y: Option<f64>,
     sum: (f64, f64, usize),
-    stimulus: Option<String>,
+    stimulus: Option<Arc<str>>,
 }
 
 struct Reader<'a> {
@@ -272,6 +273,7 @@ struct Reader<'a> {
     first_named: BTreeMap<String, i64>,
     start_events: BTreeMap<String, i64>,
     other_sensors: BTreeMap<String, usize>,
+    names_seen: SharedNames,
 }
 
 impl Reader<'_> {
@@ -371,10 +373,10 @@ impl Reader<'_> {
             self.header.subject = self.get(&f, self.c.participant).map(str::to_string);
         }
         self.screen_of(&f);
-        let stimulus = self.stimulus_of(&f);
+        let stimulus = self.stimulus_of(f);
         if let Some(s) = &stimulus {
-            if !self.first_named.contains_key(s) {
-                self.first_named.insert(s.clone(), t_us);
+            if !self.first_named.contains_key(&**s) {
+                self.first_named.insert(s.to_string(), t_us);
             }
         }
         let event = self.get(&f, self.c.event).map(str::to_string);
@@ -432,12 +434,9 @@ impl Reader<'_> {
             .any(|[x, _]| self.get(f, Some(x)).is_some())
     }
 
-    fn stimulus_of(&self, f: &[(usize, &str)]) -> Option<String> {
-        self.c
-            .stimulus
-            .iter()
-            .find_map(|&i| self.get(f, Some(i)))
-            .map(str::to_string)
+    fn stimulus_of(&mut self, f: &[(usize, &str)]) -> Option<Arc<str>> {
+        let text = self.c.stimulus.iter().find_map(|&i| self.get(f, Some(i)))?;
+        Some(self.names_seen.of(text))
     }
 
     fn screen_of(&mut self, f: &[(usize, &str)]) {
@@ -464,7 +463,7 @@ impl Reader<'_> {
         &mut self,
         f: &[(usize, &str)],
         t_us: i64,
-        stimulus: Option<String>,
+        stimulus: Option<Arc<str>>,
     ) -> Result<(), usize> {
         let left = self.eye(f, 0)?;
         let right = self.eye(f, 1)?;
@@ -511,7 +510,7 @@ impl Reader<'_> {
         duration_ms: Option<f64>,
         point: Option<(f64, f64)>,
         gaze: Option<EyeSample>,
-        stimulus: Option<String>,
+        stimulus: Option<Arc<str>>,
     ) {
         let continues = self.fixations.last().is_some_and(|f| f.index == index);
         if !continues {
@@ -653,7 +652,7 @@ impl Reader<'_> {
             events.push(Event {
                 x,
                 y,
-                stimulus: f.stimulus.clone(),
+                stimulus: f.stimulus.as_deref().map(str::to_string),
                 stimulus_onset_us: onset,
                 ..Event::span(
                     EventKind::Fixation,
@@ -755,6 +754,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         first_named: BTreeMap::new(),
         start_events: BTreeMap::new(),
         other_sensors: BTreeMap::new(),
+        names_seen: SharedNames::default(),
     };
     let wanted = r.c.wanted(r.names.len());
     let mut fields = Vec::with_capacity(r.names.len() + 1);
