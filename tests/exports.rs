@@ -219,7 +219,10 @@ fn samples_without_gaze_position_say_why_and_what_to_do() {
     let dir = temp_dir("por0");
     let path = dir.join("por0.txt");
     std::fs::write(&path, l.join("\n") + "\n").unwrap();
-    let e = ingest_file(&path, &params()).err().expect("refused");
+    let e = ingest_file(&path, &params())
+        .err()
+        .expect("refused")
+        .to_string();
     assert!(e.contains("0.00 in all 500 samples"), "{e}");
     assert!(
         e.contains("no gaze position") && e.contains("Re-export"),
@@ -554,7 +557,9 @@ fn a_sample_and_an_event_export_of_one_subject_are_refused() {
         ingest_file(&a, &params()).unwrap(),
         ingest_file(&b, &params()).unwrap(),
     ];
-    let e = check_one_source_per_subject(&files).unwrap_err();
+    let e = check_one_source_per_subject(&files)
+        .unwrap_err()
+        .to_string();
     assert!(
         e.contains("s01_samples.txt") && e.contains("s01_again.txt") && e.contains("s01"),
         "{e}"

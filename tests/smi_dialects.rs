@@ -68,7 +68,7 @@ fn a_right_eye_only_event_file_gives_fixations_by_default() {
     // A named eye the file lacks is refused, naming the eye it has.
     let mut left = params();
     left.eye = EyePolicy::Left;
-    let e = ingest_file(&p, &left).err().unwrap();
+    let e = ingest_file(&p, &left).err().unwrap().to_string();
     assert!(e.contains("no left fixation events"), "{e}");
     assert!(
         e.contains("30 right fixation events") && e.contains("--eye right"),
@@ -141,7 +141,7 @@ fn validity_flags_that_are_zero_in_every_row_are_set_aside_and_said_so() {
 #[test]
 fn a_file_whose_por_is_zero_everywhere_is_refused_with_the_reason() {
     let p = write("no_gaze_samples.txt", &dead_flag_samples(5, true));
-    let e = ingest_file(&p, &params()).err().unwrap();
+    let e = ingest_file(&p, &params()).err().unwrap().to_string();
     assert!(
         e.contains("0.00 in all") && e.contains("no gaze position"),
         "{e}"
@@ -247,7 +247,7 @@ fn a_named_eye_the_samples_lack_is_refused_naming_the_eye_they_have() {
     let p = write("subject2.txt", &iview2_samples(10));
     let mut right = params();
     right.eye = EyePolicy::Right;
-    let e = ingest_file(&p, &right).err().unwrap();
+    let e = ingest_file(&p, &right).err().unwrap().to_string();
     assert!(
         e.contains("--eye right: no valid right-eye sample")
             && e.contains("valid left-eye samples"),

@@ -421,7 +421,8 @@ fn pupil_core_surface_exports_give_fixations_and_world_camera_exports_are_refuse
     for file in ["tutorials__gaze_positions.csv", "tutorials__fixations.csv"] {
         let e = ingest_file(&src.join(file), &params())
             .err()
-            .unwrap_or_else(|| panic!("{file} accepted"));
+            .unwrap_or_else(|| panic!("{file} accepted"))
+            .to_string();
         assert!(
             e.contains("world-camera")
                 && e.contains("Surface Tracker")
@@ -475,7 +476,8 @@ fn tobii_studio_lists_give_fixations_with_their_event_lists_messages() {
     );
     let e = ingest_file(&events, &params())
         .err()
-        .expect("an event list has no gaze");
+        .expect("an event list has no gaze")
+        .to_string();
     assert!(
         e.contains("event list") && e.contains("Fixation-Data"),
         "{e}"

@@ -328,8 +328,8 @@ fn read_gaze<'py>(
     }
     let (tables, sample_text, notes) = py
         .detach(|| {
-            let (files, _) = ingest_files(&paths, &params)?;
-            let tables = ingest_tables(&files)?;
+            let (files, _) = ingest_files(&paths, &params).map_err(|e| e.to_string())?;
+            let tables = ingest_tables(&files).map_err(|e| e.to_string())?;
             let sample_text = if samples {
                 let mut out = Vec::new();
                 write_samples_csv(&mut out, &files).map_err(|e| e.to_string())?;

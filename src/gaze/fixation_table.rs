@@ -72,15 +72,15 @@ impl From<&Fixation> for FixationRow {
 }
 
 /// Writes the table (RFC 4180 quoting, so subjects and stimuli may hold commas).
-pub fn write_fixations_csv<W: Write>(out: W, rows: &[FixationRow]) -> Result<(), String> {
+pub fn write_fixations_csv<W: Write>(out: W, rows: &[FixationRow]) -> Result<(), super::GazeError> {
     let mut w = csv::WriterBuilder::new()
         .has_headers(false)
         .from_writer(out);
-    w.write_record(WRITTEN).map_err(|e| e.to_string())?;
+    w.write_record(WRITTEN).map_err(super::GazeError::table)?;
     for r in rows {
-        w.serialize(r).map_err(|e| e.to_string())?;
+        w.serialize(r).map_err(super::GazeError::table)?;
     }
-    w.flush().map_err(|e| e.to_string())
+    w.flush().map_err(super::GazeError::table)
 }
 
 /// Reads a `fixations.csv`; errors name the file, line and field.

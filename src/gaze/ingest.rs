@@ -13,7 +13,7 @@ use super::fixations::{
 };
 use super::quality::{quality, QualityRow};
 use super::read_recording;
-use super::recording::{EyeSample, GazeFormat, Header, Recording, RowAccount};
+use super::recording::{EyeSample, GazeError, GazeFormat, Header, Recording, RowAccount};
 use super::stimulus_messages::{
     classify_messages, ClassifiedMessage, Segmentation, StimulusPattern,
 };
@@ -55,7 +55,7 @@ impl IngestParams {
     pub fn from_protocol(
         protocol: &crate::protocol::Protocol,
         pattern: Option<(&str, Option<&str>)>,
-    ) -> Result<IngestParams, String> {
+    ) -> Result<IngestParams, GazeError> {
         let rules = &protocol.fixations;
         let (start, end) = match pattern {
             Some((s, e)) => (Some(s), e),
@@ -64,7 +64,10 @@ impl IngestParams {
                 rules.stimulus_end_pattern.as_deref(),
             ),
         };
-        let pattern = start.map(|p| StimulusPattern::new(p, end)).transpose()?;
+        let pattern = start
+            .map(|p| StimulusPattern::new(p, end))
+            .transpose()
+            .map_err(GazeError::Invalid)?;
         Ok(IngestParams {
             format: None,
             detector: None,
@@ -116,7 +119,7 @@ fn scale_normalized_positions(
     rec: &mut Recording,
     screen: Option<[f64; 2]>,
     path: &Path,
-) -> Result<(), String> {
+) -> Result<(), GazeError> {
     if !rec.header.normalized {
         return Ok(());
     }
@@ -124,9 +127,9 @@ fn scale_normalized_positions(
         (Some(s), _) => (s, "the file's screen size"),
         (None, Some(s)) => (s, "--screen, else the protocol's display"),
         (None, None) => {
-            return Err(format!(
-                "{}: positions are fractions of the screen and the file does not say its size: give --screen WIDTHxHEIGHT",
-                path.display()
+            return Err(GazeError::file(
+                path,
+                "positions are fractions of the screen and the file does not say its size: give --screen WIDTHxHEIGHT",
             ))
         }
     };
@@ -199,7 +202,7 @@ pub fn default_detector(rec: &Recording) -> Detector {
 
 /// Fails when a sample detector would see no gaze position at all: every sample's point of
 /// regard is 0.00 (exports of pupil and corneal reflex only).
-fn check_gaze_present(rec: &Recording, path: &Path) -> Result<(), String> {
+fn check_gaze_present(rec: &Recording, path: &Path) -> Result<(), GazeError> {
     let has_position = |e: &Option<EyeSample>| e.is_some_and(|e| e.x != 0.0 || e.y != 0.0);
     let with_position = rec
         .samples
@@ -207,11 +210,10 @@ fn check_gaze_present(rec: &Recording, path: &Path) -> Result<(), String> {
         .filter(|s| has_position(&s.left) || has_position(&s.right) || has_position(&s.binocular))
         .count();
     if !rec.samples.is_empty() && with_position == 0 {
-        return Err(format!(
-            "{}: the point of regard (POR X/Y) is 0.00 in all {} samples, so this export carries no gaze position (only pupil and corneal reflex data); no fixation can be found in it. Re-export the recording from BeGaze or IDF Converter with the POR columns selected (Format: POR), or give the exporter's fixation events instead",
-            path.display(),
+        return Err(GazeError::file(path, format!(
+            "the point of regard (POR X/Y) is 0.00 in all {} samples, so this export carries no gaze position (only pupil and corneal reflex data); no fixation can be found in it. Re-export the recording from BeGaze or IDF Converter with the POR columns selected (Format: POR), or give the exporter's fixation events instead",
             rec.samples.len()
-        ));
+        )));
     }
     Ok(())
 }
@@ -233,7 +235,7 @@ fn check_chosen_eye_has_samples(
     rec: &Recording,
     eye: EyePolicy,
     path: &Path,
-) -> Result<(), String> {
+) -> Result<(), GazeError> {
     let [l, r, b] = valid_sample_counts(rec);
     let (chosen, n) = match eye {
         EyePolicy::Left => ("left", l),
@@ -253,9 +255,11 @@ fn check_chosen_eye_has_samples(
     } else {
         present.join(" and ")
     };
-    Err(format!(
-        "{}: --eye {chosen}: no valid {chosen}-eye sample; the file has {has} (leave --eye out to use the eye the file has)",
-        path.display()
+    Err(GazeError::file(
+        path,
+        format!(
+            "--eye {chosen}: no valid {chosen}-eye sample; the file has {has} (leave --eye out to use the eye the file has)"
+        ),
     ))
 }
 
@@ -339,8 +343,8 @@ pub fn why_no_fixations(
 }
 
 /// Reads one export, finds its fixations, applies the protocol's filter and measures quality.
-pub fn ingest_file(path: &Path, params: &IngestParams) -> Result<IngestedFile, String> {
-    let mut rec = read_recording(path, params.format).map_err(|e| e.to_string())?;
+pub fn ingest_file(path: &Path, params: &IngestParams) -> Result<IngestedFile, GazeError> {
+    let mut rec = read_recording(path, params.format)?;
     scale_normalized_positions(&mut rec, params.screen_px, path)?;
     let validity_notes = apply_validity_rule(&mut rec, params.validity);
     rec.notes.extend(validity_notes);
@@ -388,14 +392,14 @@ pub fn ingest_file(path: &Path, params: &IngestParams) -> Result<IngestedFile, S
         // Say why the rows were unusable: that is usually why nothing was found.
         let first = rec.rows.unusable.iter().min_by_key(|(_, f)| f.line);
         match first {
-            Some((reason, f)) => format!(
+            Some((reason, f)) => GazeError::NoFixations(format!(
                 "{e} ({} unusable lines; the first: {reason} at {}:{}:{})",
                 rec.rows.unusable_total(),
                 path.display(),
                 f.line,
                 f.column
-            ),
-            None => e,
+            )),
+            None => GazeError::NoFixations(e),
         }
     })?;
     let rules = params.filter;
@@ -428,14 +432,15 @@ pub fn ingest_file(path: &Path, params: &IngestParams) -> Result<IngestedFile, S
 pub fn ingest_files(
     paths: &[PathBuf],
     params: &IngestParams,
-) -> Result<(Vec<IngestedFile>, Vec<InputFile>), String> {
+) -> Result<(Vec<IngestedFile>, Vec<InputFile>), GazeError> {
     let mut files = Vec::new();
     let mut inputs = Vec::new();
     for path in paths {
         files.push(ingest_file(path, params)?);
-        inputs.push(
-            InputFile::hash(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?,
-        );
+        inputs.push(InputFile::hash(path).map_err(|error| GazeError::Io {
+            path: path.display().to_string(),
+            error,
+        })?);
     }
     check_one_source_per_subject(&files)?;
     Ok((files, inputs))
@@ -449,8 +454,11 @@ pub fn write_ingest(
     inputs: Vec<InputFile>,
     protocol: &Protocol,
     params: &IngestParams,
-) -> Result<(usize, PathBuf), String> {
-    crate::file_bytes::create_output_dir(dir).map_err(|e| e.to_string())?;
+) -> Result<(usize, PathBuf), GazeError> {
+    crate::file_bytes::create_output_dir(dir).map_err(|error| GazeError::Write {
+        path: dir.to_path_buf(),
+        error,
+    })?;
     let fixations = write_ingest_tables(dir, files)?;
     let json = write_ingest_json(dir, files, inputs, protocol, params)?;
     Ok((fixations, json))
@@ -459,7 +467,7 @@ pub fn write_ingest(
 /// Refuses two files that are one recording (the same stimulus onsets at the same tracker
 /// times: a sample export and an event export of it) or that give the same subject fixations
 /// on the same stimulus: either would count that subject's fixations twice.
-pub fn check_one_source_per_subject(files: &[IngestedFile]) -> Result<(), String> {
+pub fn check_one_source_per_subject(files: &[IngestedFile]) -> Result<(), GazeError> {
     let mut onsets: BTreeMap<Vec<(&str, i64)>, &Path> = BTreeMap::new();
     for f in files {
         let list: Vec<(&str, i64)> = f
@@ -472,13 +480,13 @@ pub fn check_one_source_per_subject(files: &[IngestedFile]) -> Result<(), String
         }
         let first = list[0];
         if let Some(other) = onsets.insert(list, &f.path) {
-            return Err(format!(
+            return Err(GazeError::Conflict(format!(
                 "{} and {} are one recording (the same stimulus onsets at the same tracker times, e.g. `{}` at {} µs): ingesting both would count its fixations twice (a sample export and an event export?). Give one of them",
                 other.display(),
                 f.path.display(),
                 first.0,
                 first.1
-            ));
+            )));
         }
     }
     let mut seen: BTreeMap<(&str, &str), &Path> = BTreeMap::new();
@@ -494,13 +502,13 @@ pub fn check_one_source_per_subject(files: &[IngestedFile]) -> Result<(), String
         for key in pairs {
             if let Some(other) = seen.insert(key, &f.path) {
                 if other != f.path {
-                    return Err(format!(
+                    return Err(GazeError::Conflict(format!(
                         "{} and {} both hold subject `{}` watching `{}`: ingesting both would count that subject's fixations twice (a sample export and an event export of one recording?). Give one file per subject and stimulus, or --subject to tell them apart",
                         other.display(),
                         f.path.display(),
                         key.0,
                         if key.1.is_empty() { "(no stimulus)" } else { key.1 }
-                    ));
+                    )));
                 }
             }
         }
@@ -568,12 +576,12 @@ pub fn write_samples_rows(
 
 /// messages.csv: every message of every file with its kind (RFC 4180 quoting: messages hold
 /// commas and quotes).
-pub fn write_messages_csv(out: impl Write, files: &[IngestedFile]) -> Result<(), String> {
+pub fn write_messages_csv(out: impl Write, files: &[IngestedFile]) -> Result<(), GazeError> {
     let mut w = csv::Writer::from_writer(out);
     w.write_record([
         "file", "subject", "trial", "time_us", "kind", "stimulus", "text",
     ])
-    .map_err(|e| e.to_string())?;
+    .map_err(GazeError::table)?;
     for f in files {
         let file = f.path.display().to_string();
         for m in &f.messages {
@@ -586,10 +594,10 @@ pub fn write_messages_csv(out: impl Write, files: &[IngestedFile]) -> Result<(),
                 m.stimulus.as_deref().unwrap_or(""),
                 m.text.as_str(),
             ])
-            .map_err(|e| e.to_string())?;
+            .map_err(GazeError::table)?;
         }
     }
-    w.flush().map_err(|e| e.to_string())
+    w.flush().map_err(GazeError::table)
 }
 
 /// Messages per kind, for ingest.json.
@@ -655,7 +663,7 @@ pub fn write_ingest_json(
     inputs: Vec<InputFile>,
     protocol: &Protocol,
     params: &IngestParams,
-) -> Result<PathBuf, String> {
+) -> Result<PathBuf, GazeError> {
     let rules = &protocol.fixations;
     let sidecar = IngestSidecar {
         provenance: Provenance::new(inputs),
@@ -696,8 +704,11 @@ pub fn write_ingest_json(
             .collect(),
     };
     let j = dir.join("ingest.json");
-    let text = serde_json::to_string_pretty(&sidecar).map_err(|e| e.to_string())? + "\n";
-    std::fs::write(&j, text).map_err(|e| format!("cannot write {}: {e}", j.display()))?;
+    let text = serde_json::to_string_pretty(&sidecar).map_err(GazeError::table)? + "\n";
+    std::fs::write(&j, text).map_err(|error| GazeError::Write {
+        path: j.clone(),
+        error,
+    })?;
     Ok(j)
 }
 
@@ -711,8 +722,8 @@ pub struct IngestTables {
 }
 
 /// fixations.csv, messages.csv and quality.csv of `files`, in memory.
-pub fn ingest_tables(files: &[IngestedFile]) -> Result<IngestTables, String> {
-    let text = |bytes: Vec<u8>| String::from_utf8(bytes).map_err(|e| e.to_string());
+pub fn ingest_tables(files: &[IngestedFile]) -> Result<IngestTables, GazeError> {
+    let text = |bytes: Vec<u8>| String::from_utf8(bytes).map_err(GazeError::table);
     let rows: Vec<FixationRow> = files
         .iter()
         .flat_map(|f| f.fixations.iter().map(FixationRow::from))
@@ -726,7 +737,7 @@ pub fn ingest_tables(files: &[IngestedFile]) -> Result<IngestTables, String> {
         .flat_map(|f| f.quality.iter().cloned())
         .collect();
     let mut quality = Vec::new();
-    write_quality_csv(&mut quality, &quality_rows).map_err(|e| e.to_string())?;
+    write_quality_csv(&mut quality, &quality_rows).map_err(GazeError::table)?;
     Ok(IngestTables {
         fixations: text(fixations)?,
         messages: text(messages)?,
@@ -746,7 +757,7 @@ pub fn write_samples_csv(out: &mut impl Write, files: &[IngestedFile]) -> std::i
 
 /// Writes fixations.csv, messages.csv and quality.csv of `files` into `dir`; returns the
 /// number of fixations.
-pub fn write_ingest_tables(dir: &Path, files: &[IngestedFile]) -> Result<usize, String> {
+pub fn write_ingest_tables(dir: &Path, files: &[IngestedFile]) -> Result<usize, GazeError> {
     let tables = ingest_tables(files)?;
     for (name, text) in [
         ("fixations.csv", &tables.fixations),
@@ -754,7 +765,7 @@ pub fn write_ingest_tables(dir: &Path, files: &[IngestedFile]) -> Result<usize, 
         ("quality.csv", &tables.quality),
     ] {
         let p = dir.join(name);
-        std::fs::write(&p, text).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
+        std::fs::write(&p, text).map_err(|error| GazeError::Write { path: p, error })?;
     }
     Ok(tables.fixation_count)
 }

@@ -381,19 +381,76 @@ pub struct Recording {
     pub notes: Vec<String>,
 }
 
+/// Why recordings could not be read or ingested: the gaze stage's one error. A reader's error
+/// names the file and, where one line is at fault, its line and column.
 #[derive(Debug, thiserror::Error)]
 pub enum GazeError {
+    /// The file could not be read.
     #[error("{path}: {error}")]
-    Io { path: String, error: std::io::Error },
+    Io {
+        /// The file.
+        path: String,
+        /// The I/O error.
+        error: std::io::Error,
+    },
+    /// One place in the file is at fault.
     #[error("{path}:{line}:{column}: {message}")]
     At {
+        /// The file.
         path: String,
+        /// 1-based line.
         line: usize,
+        /// 1-based column.
         column: usize,
+        /// What is wrong there.
         message: String,
     },
+    /// The file as a whole cannot be used (not a known export, no gaze positions, no screen
+    /// size for screen fractions, an eye it does not have); the message says what to do.
     #[error("{path}: {message}")]
-    File { path: String, message: String },
+    File {
+        /// The file.
+        path: String,
+        /// Why, and what to do.
+        message: String,
+    },
+    /// An option cannot be used (a stimulus pattern that is not a regular expression, an
+    /// unknown format name).
+    #[error("{0}")]
+    Invalid(String),
+    /// No fixation could be found or detected in the file; the message names the file and the
+    /// first unusable line, usually the reason.
+    #[error("{0}")]
+    NoFixations(String),
+    /// Files that cannot be ingested together: they would count a subject's fixations twice.
+    #[error("{0}")]
+    Conflict(String),
+    /// An output table or sidecar could not be written.
+    #[error("cannot write {}: {error}", path.display())]
+    Write {
+        /// The file.
+        path: std::path::PathBuf,
+        /// The I/O error.
+        error: std::io::Error,
+    },
+    /// An output table could not be formatted (the CSV writer's error).
+    #[error("{0}")]
+    Table(String),
+}
+
+impl GazeError {
+    /// A whole-file error on `path`.
+    pub(crate) fn file(path: &std::path::Path, message: impl Into<String>) -> GazeError {
+        GazeError::File {
+            path: path.display().to_string(),
+            message: message.into(),
+        }
+    }
+
+    /// A formatting error of an output table.
+    pub(crate) fn table(error: impl std::fmt::Display) -> GazeError {
+        GazeError::Table(error.to_string())
+    }
 }
 
 #[cfg(test)]

@@ -342,9 +342,9 @@ fn ingest_params(study: &Study) -> Result<IngestParams> {
         .stimulus_pattern
         .as_deref()
         .map(|p| (p, study.stimulus_end_pattern.as_deref()));
-    IngestParams::from_protocol(&study.protocol, pattern).map_err(|message| StudyError::Config {
+    IngestParams::from_protocol(&study.protocol, pattern).map_err(|e| StudyError::Config {
         path: study.file.clone(),
-        message,
+        message: e.to_string(),
     })
 }
 
@@ -383,7 +383,7 @@ fn ingest_all(study: &Study, protocol_hash: &str) -> Result<(StepLog, Vec<String
             Err(e) => problems.push(format!("recording left out: {e}")),
         }
     }
-    check_one_source_per_subject(&files).map_err(StudyError::Invalid)?;
+    check_one_source_per_subject(&files).map_err(|e| StudyError::Invalid(e.to_string()))?;
     for f in &files {
         problems.extend(f.warnings.iter().cloned());
     }
