@@ -83,6 +83,7 @@ pub fn render_stimulus(
                 &options,
                 progress_of(progress),
             )
+            .map_err(|e| e.to_string())
         })
         .map_err(fail)?;
     serde_json::to_string(&manifest).map_err(fail)

@@ -1,6 +1,7 @@
 //! Stimulus rendering: a protocol and a mesh become a turntable video, the camera timeline
 //! of every frame, and a manifest with the hashes that later stages check.
 pub mod camera;
+mod error;
 pub mod h264_repeat;
 pub mod hold_views;
 pub mod load;
@@ -8,6 +9,8 @@ pub mod overlay;
 
 pub mod raster;
 pub mod video;
+
+pub use error::StimulusError;
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -185,10 +188,10 @@ pub fn render_stimulus(
     out_dir: &Path,
     options: &StimulusOptions,
     progress: &dyn Progress,
-) -> Result<Manifest, String> {
+) -> Result<Manifest, StimulusError> {
     let t0 = Instant::now();
-    std::fs::create_dir_all(out_dir).map_err(|e| format!("{}: {e}", out_dir.display()))?;
-    let plan = CameraPlan::new(mesh, protocol)?;
+    std::fs::create_dir_all(out_dir).map_err(StimulusError::io(out_dir))?;
+    let plan = CameraPlan::new(mesh, protocol).map_err(StimulusError::Camera)?;
     let (w, h) = (protocol.display.width_px, protocol.display.height_px);
     let fps = protocol.video.fps;
     let n_frames = protocol.frame_count();
@@ -200,14 +203,13 @@ pub fn render_stimulus(
         bitrate_bps: protocol.video.bitrate_bps,
         keyframe_interval: protocol.video.keyframe_interval_frames,
     };
-    let file = video::Mp4File::create(&video_path, &settings)?;
+    let file = video::Mp4File::create(&video_path, &settings).map_err(StimulusError::Video)?;
     let timeline_path = out_dir.join("timeline.csv");
     let frames_dir = out_dir.join("frames");
     if options.frames != FrameImages::None || options.id_buffer {
-        std::fs::create_dir_all(&frames_dir)
-            .map_err(|e| format!("{}: {e}", frames_dir.display()))?;
+        std::fs::create_dir_all(&frames_dir).map_err(StimulusError::io(&frames_dir))?;
     }
-    write_timeline(&plan, protocol, &timeline_path)?;
+    write_timeline(&plan, protocol, &timeline_path).map_err(StimulusError::io(&timeline_path))?;
     let (frames, counts, checkers) = render_frames(
         mesh,
         &plan,
@@ -217,7 +219,8 @@ pub fn render_stimulus(
         &frames_dir,
         options,
         progress,
-    )?;
+    )
+    .map_err(StimulusError::Video)?;
     let verify = options.verify.then(|| VerifyReport {
         frames_decoded: checkers.iter().map(|c| c.frames_decoded).sum(),
         min_psnr_db: checkers
@@ -226,12 +229,10 @@ pub fn render_stimulus(
             .fold(f64::INFINITY, f64::min),
         outlier_values: checkers.iter().map(|c| c.outlier_values).sum(),
     });
-    let video_file =
-        InputFile::hash(&video_path).map_err(|e| format!("{}: {e}", video_path.display()))?;
+    let video_file = InputFile::hash(&video_path).map_err(StimulusError::io(&video_path))?;
     let timeline_file =
-        InputFile::hash(&timeline_path).map_err(|e| format!("{}: {e}", timeline_path.display()))?;
-    let mesh_input =
-        InputFile::hash(mesh_file).map_err(|e| format!("{}: {e}", mesh_file.display()))?;
+        InputFile::hash(&timeline_path).map_err(StimulusError::io(&timeline_path))?;
+    let mesh_input = InputFile::hash(mesh_file).map_err(StimulusError::io(mesh_file))?;
     let protocol_input = InputFile::of_bytes(protocol_name, protocol_text.as_bytes());
     let manifest = Manifest {
         provenance: Provenance::new(vec![mesh_input.clone(), protocol_input]),
@@ -271,9 +272,10 @@ pub fn render_stimulus(
         verify,
     };
     let manifest_path = out_dir.join("manifest.json");
-    let json = serde_json::to_string_pretty(&manifest).map_err(|e| e.to_string())? + "\n";
-    std::fs::write(&manifest_path, json)
-        .map_err(|e| format!("{}: {e}", manifest_path.display()))?;
+    let json = serde_json::to_string_pretty(&manifest)
+        .map_err(|e| StimulusError::Manifest(e.to_string()))?
+        + "\n";
+    std::fs::write(&manifest_path, json).map_err(StimulusError::io(&manifest_path))?;
     Ok(manifest)
 }
 
@@ -287,15 +289,14 @@ struct FrameCounts {
 }
 
 /// The camera of every frame, one CSV row each.
-fn write_timeline(plan: &CameraPlan, protocol: &Protocol, path: &Path) -> Result<(), String> {
-    let io = |e: std::io::Error| format!("{}: {e}", path.display());
-    let mut timeline = std::io::BufWriter::new(std::fs::File::create(path).map_err(io)?);
-    writeln!(timeline, "{}", timeline_header()).map_err(io)?;
+fn write_timeline(plan: &CameraPlan, protocol: &Protocol, path: &Path) -> std::io::Result<()> {
+    let mut timeline = std::io::BufWriter::new(std::fs::File::create(path)?);
+    writeln!(timeline, "{}", timeline_header())?;
     for i in 0..protocol.frame_count() {
         let cam = plan.at(i as f64 / protocol.video.fps as f64);
-        writeln!(timeline, "{}", timeline_row(i, &cam)).map_err(io)?;
+        writeln!(timeline, "{}", timeline_row(i, &cam))?;
     }
-    timeline.flush().map_err(io)
+    timeline.flush()
 }
 
 /// Where the video is cut into separately encoded segments: at the keyframe nearest its

@@ -61,9 +61,9 @@ pub fn stimulus_cell(data: &Path) -> Result<StimulusCell, TimingError> {
         &Silent,
     );
     let _ = std::fs::remove_dir_all(&out);
-    let m = rendered.map_err(|message| TimingError::Step {
+    let m = rendered.map_err(|e| TimingError::Step {
         step: "the stimulus render".to_string(),
-        message,
+        message: e.to_string(),
     })?;
     Ok(StimulusCell {
         triangles: mesh.triangles.len(),
