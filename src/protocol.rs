@@ -4,54 +4,93 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+/// Why a protocol file could not be used; every variant names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum ProtocolError {
+    /// The file could not be read.
     #[error("{path}: {error}")]
-    Io { path: String, error: std::io::Error },
+    Io {
+        /// The file.
+        path: String,
+        /// The I/O error.
+        error: std::io::Error,
+    },
+    /// The file is not TOML of the protocol's shape (the message has the line and column).
     #[error("{path}: {message}")]
-    Parse { path: String, message: String },
+    Parse {
+        /// The file.
+        path: String,
+        /// The TOML parser's message.
+        message: String,
+    },
+    /// The values contradict each other or are out of range.
     #[error("{path}: invalid protocol: {message}")]
-    Invalid { path: String, message: String },
+    Invalid {
+        /// The file.
+        path: String,
+        /// Which field and why.
+        message: String,
+    },
 }
 
+/// An experiment protocol: the display, the video, the viewpoints and their timing, the
+/// rendering, the synchronisation marks and the fixation rules every later stage applies.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Protocol {
     /// Schema version of this file format (1).
     pub version: u32,
+    /// A short name, recorded in every output's provenance.
     pub name: String,
+    /// Free text: where the protocol comes from.
     #[serde(default)]
     pub description: String,
+    /// The screen the subjects watched.
     pub display: Display,
+    /// The stimulus video's encoding.
     pub video: Video,
+    /// Which directions the camera holds on, and in which order.
     pub viewpoints: Viewpoints,
+    /// How long each hold and each move lasts.
     pub timing: Timing,
+    /// How the mesh is drawn.
     pub rendering: Rendering,
+    /// Marks burned into the video to synchronise it with a recording.
     #[serde(default)]
     pub sync: Sync,
+    /// The fixation detector's settings and the protocol's fixation filter.
     pub fixations: FixationRules,
 }
 
+/// The screen the stimulus is shown on.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Display {
+    /// Screen width in pixels (the video's width).
     pub width_px: u32,
+    /// Screen height in pixels (the video's height).
     pub height_px: u32,
+    /// Visible screen width in millimetres.
     pub width_mm: f64,
+    /// Visible screen height in millimetres.
     pub height_mm: f64,
     /// Nearest and farthest eye-to-screen distance of the subjects.
     pub viewing_distance_mm: [f64; 2],
 }
 
+/// The stimulus video's encoding.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Video {
+    /// Frames per second.
     pub fps: u32,
+    /// Target H.264 bit rate in bits per second.
     pub bitrate_bps: u32,
     /// Frames between IDR frames (seekable points).
     pub keyframe_interval_frames: u32,
 }
 
+/// How the viewpoint directions are made.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum ViewpointGenerator {
@@ -64,10 +103,13 @@ pub enum ViewpointGenerator {
     List,
 }
 
+/// The directions the camera holds on, and the order of the tour.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Viewpoints {
+    /// How the directions are made.
     pub generator: ViewpointGenerator,
+    /// How many holds the video has (12 in the paper).
     pub count: usize,
     /// Turntable only.
     #[serde(default)]
@@ -82,9 +124,11 @@ pub struct Viewpoints {
     pub up: [f64; 3],
 }
 
+/// How the camera speeds up and slows down between two holds.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum Easing {
+    /// Constant speed (a jolt at both ends).
     Linear,
     /// ½ − ½ cos(π s): zero speed at both ends, peak speed π/2 × the mean.
     Cosine,
@@ -93,6 +137,7 @@ pub enum Easing {
 }
 
 impl Easing {
+    /// The eased fraction of the move at time fraction `s` (clamped to 0..=1).
     pub fn apply(self, s: f64) -> f64 {
         let s = s.clamp(0.0, 1.0);
         match self {
@@ -112,23 +157,32 @@ impl Easing {
     }
 }
 
+/// How long each hold and each move lasts.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Timing {
+    /// Seconds the camera holds on each viewpoint (3 in the paper).
     pub hold_s: f64,
+    /// Seconds of each move between two viewpoints (1 in the paper).
     pub move_s: f64,
+    /// The speed profile of a move.
     pub easing: Easing,
     /// After the last hold, move back to the first viewpoint (this fills the paper's 48th
     /// second: 12 × (3 + 1) = 48 s). Without it the video ends on the last hold.
     pub return_to_first: bool,
 }
 
+/// How the mesh is drawn.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct Rendering {
+    /// Background colour (RGB).
     pub background: [u8; 3],
+    /// The mesh's colour (RGB), untextured.
     pub material: [u8; 3],
+    /// Ambient light, 0..=1.
     pub ambient: f64,
+    /// Diffuse (Lambert) light, 0..=1.
     pub diffuse: f64,
     /// Light direction in camera coordinates (x right, y up, z towards the viewer): a
     /// headlight, so every view is lit the same way.
@@ -143,22 +197,30 @@ pub struct Rendering {
 
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq, Default)]
 #[serde(rename_all = "kebab-case")]
+/// A corner of the screen.
 pub enum Corner {
+    /// Top left.
     TopLeft,
+    /// Top right.
     TopRight,
+    /// Bottom left.
     BottomLeft,
+    /// Bottom right (the default: away from the frame counter).
     #[default]
     BottomRight,
 }
 
+/// Marks burned into the video to synchronise it with a recording.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq, Default)]
 #[serde(deny_unknown_fields)]
 pub struct Sync {
     /// A square white during holds and black during moves, for a photodiode on the screen.
     #[serde(default)]
     pub photodiode: bool,
+    /// Where the photodiode square is.
     #[serde(default)]
     pub photodiode_corner: Corner,
+    /// The photodiode square's side in pixels.
     #[serde(default = "default_patch")]
     pub photodiode_size_px: u32,
     /// The frame index burned into the top-left corner.
@@ -170,6 +232,7 @@ fn default_patch() -> u32 {
     40
 }
 
+/// Which camera a fixation that overlaps a move is projected with.
 #[derive(Debug, Clone, Copy, Serialize, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "lowercase")]
 pub enum DuringMove {
@@ -181,14 +244,22 @@ pub enum DuringMove {
     Reject,
 }
 
+/// The fixation detector's settings, the protocol's fixation filter and the stimulus rules.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct FixationRules {
+    /// Fixations dropped at the start of each subject's viewing of a stimulus (2 in the paper).
     pub drop_first: usize,
+    /// Fixations dropped at its end (2 in the paper).
     pub drop_last: usize,
+    /// Of the rest, the longest kept (15 in the paper).
     pub keep_longest: usize,
+    /// The largest calibration error, in degrees, at which the experimenter accepts a
+    /// calibration (recorded in provenance; the exports carry no calibration result to check).
     pub calibration_accept_deg: f64,
+    /// The tracker's accuracy in degrees: the radius of the cone a fixation is snapped within.
     pub tracker_accuracy_deg: f64,
+    /// Which camera a fixation that overlaps a move is projected with.
     pub during_move: DuringMove,
     /// I-DT: largest dispersion, (max x − min x) + (max y − min y) in pixels (SMI's low-speed
     /// detector default 100 px).
@@ -260,6 +331,7 @@ impl Protocol {
         }
     }
 
+    /// A protocol from TOML text, checked; `path` names it in errors.
     pub fn from_toml(text: &str, path: &str) -> Result<Protocol, ProtocolError> {
         let p: Protocol = toml::from_str(text).map_err(|e| ProtocolError::Parse {
             path: path.to_string(),
@@ -272,6 +344,7 @@ impl Protocol {
         Ok(p)
     }
 
+    /// The protocol in the TOML file at `path`, with its text.
     pub fn load(path: &Path) -> Result<(Protocol, String), ProtocolError> {
         let text = std::fs::read_to_string(path).map_err(|source| ProtocolError::Io {
             path: path.display().to_string(),
@@ -283,6 +356,7 @@ impl Protocol {
         ))
     }
 
+    /// Checks that the values are usable together; the message names the field.
     pub fn validate(&self) -> Result<(), String> {
         for (key, pattern) in [
             ("stimulus_pattern", &self.fixations.stimulus_pattern),
@@ -387,6 +461,7 @@ impl Protocol {
 
     /// Total length: every viewpoint held, a move between consecutive ones, and a move back
     /// to the first with `return_to_first`.
+    /// The video's length in seconds: every hold, and every move between them.
     pub fn duration_s(&self) -> f64 {
         let n = self.viewpoints.count as f64;
         let moves = if self.timing.return_to_first {
@@ -397,6 +472,7 @@ impl Protocol {
         n * self.timing.hold_s + moves * self.timing.move_s
     }
 
+    /// The video's number of frames.
     pub fn frame_count(&self) -> usize {
         (self.duration_s() * self.video.fps as f64).round() as usize
     }
