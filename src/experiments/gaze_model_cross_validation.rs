@@ -176,53 +176,60 @@ pub fn schemes(objects: &[TrainingObject], plan: &CvPlan) -> Vec<Scheme> {
     out
 }
 
-/// Every fold of every scheme of `plan`, and the baselines once per mesh.
-pub fn cross_validate(
+/// The group `scheme` puts an object or mesh in: its name, its dataset, or its category.
+fn group_of(plan: &CvPlan, scheme: Scheme, name: &str, dataset: &str) -> String {
+    match scheme {
+        Scheme::Object => name.to_string(),
+        Scheme::Dataset => dataset.to_string(),
+        Scheme::Category => plan
+            .categories
+            .as_ref()
+            .and_then(|c| c.category(name))
+            .unwrap_or("")
+            .to_string(),
+    }
+}
+
+/// Refuses a categories file that leaves a training object or held-out mesh without one.
+fn check_categories(
     objects: &[TrainingObject],
     meshes: &[EvaluationMesh],
-    options: &TrainOptions,
-    protocol: &Protocol,
     plan: &CvPlan,
-    progress: &dyn Progress,
-) -> Result<CvResult, String> {
-    let schemes = schemes(objects, plan);
-    if let Some(categories) = &plan.categories {
-        let missing: Vec<&str> = objects
-            .iter()
-            .map(|o| o.name.as_str())
-            .chain(meshes.iter().map(|m| m.name.as_str()))
-            .filter(|n| categories.category(n).is_none())
-            .collect();
-        if !missing.is_empty() {
-            return Err(format!(
-                "the categories file names no category for: {}; every training object and held-out mesh needs one",
-                missing.join(", ")
-            ));
-        }
-    }
-    let group_of = |scheme: Scheme, name: &str, dataset: &str| -> String {
-        match scheme {
-            Scheme::Object => name.to_string(),
-            Scheme::Dataset => dataset.to_string(),
-            Scheme::Category => plan
-                .categories
-                .as_ref()
-                .and_then(|c| c.category(name))
-                .unwrap_or("")
-                .to_string(),
-        }
+) -> Result<(), String> {
+    let Some(categories) = &plan.categories else {
+        return Ok(());
     };
-    let withouts: Vec<&str> = if plan.ablations {
+    let missing: Vec<&str> = objects
+        .iter()
+        .map(|o| o.name.as_str())
+        .chain(meshes.iter().map(|m| m.name.as_str()))
+        .filter(|n| categories.category(n).is_none())
+        .collect();
+    if missing.is_empty() {
+        return Ok(());
+    }
+    Err(format!(
+        "the categories file names no category for: {}; every training object and held-out mesh needs one",
+        missing.join(", ")
+    ))
+}
+
+/// Every (scheme, held-out group, ablation): one training run each.
+fn folds_of(
+    schemes: &[Scheme],
+    meshes: &[EvaluationMesh],
+    plan: &CvPlan,
+) -> Vec<(Scheme, String, &'static str)> {
+    let withouts: Vec<&'static str> = if plan.ablations {
         std::iter::once("none").chain(FEATURE_GROUPS).collect()
     } else {
         vec!["none"]
     };
-    // Every (scheme, held-out group, ablation) is one training run.
-    let mut folds: Vec<(Scheme, String, &str)> = Vec::new();
-    for &scheme in &schemes {
+    let mut folds = Vec::new();
+    for &scheme in schemes {
         let mut groups: Vec<String> = Vec::new();
         for m in meshes {
-            let g = group_of(scheme, &m.name, &m.dataset);
+            let g = group_of(plan, scheme, &m.name, &m.dataset);
             if !groups.contains(&g) {
                 groups.push(g);
             }
@@ -233,6 +240,76 @@ pub fn cross_validate(
             }
         }
     }
+    folds
+}
+
+/// One held-out mesh's scores of `map` under `name`.
+fn score_row(mesh: &EvaluationMesh, seen: &[bool], name: &str, map: &[f64]) -> CvRow {
+    CvRow {
+        object: mesh.name.clone(),
+        method: name.to_string(),
+        auc_judd: auc_judd(map, &mesh.positive, None),
+        auc_judd_visible: auc_judd_seen(map, &mesh.positive, seen, None),
+        lcc: lcc(map, &mesh.values, None),
+    }
+}
+
+/// The held-out mesh's rows: the gaze model's held-out map, every baseline, the up+mc rank
+/// sum and the mean of 20 seeded chance maps.
+fn baseline_rows(
+    held: &EvaluationMesh,
+    seen: &[bool],
+    gaze_map: Vec<f64>,
+    viewing: &Viewing,
+) -> Result<Vec<CvRow>, String> {
+    let mut maps: Vec<(String, Vec<f64>)> = vec![("gaze".into(), gaze_map)];
+    for method in BASELINES {
+        let out = compute_saliency_viewed(
+            method,
+            &held.mesh,
+            &SmsParams::default(),
+            viewing,
+            &crate::progress::Silent,
+        )
+        .map_err(|e| format!("{}: {}: {e}", held.name, method.name()))?;
+        maps.push((method.name().to_string(), out.values));
+    }
+    let rank_sum: Vec<f64> = {
+        let find = |name: &str| &maps.iter().find(|m| m.0 == name).expect("baseline").1;
+        let (u, c) = (ranks(find("up")), ranks(find("mc")));
+        u.iter().zip(&c).map(|(a, b)| a + b).collect()
+    };
+    maps.push(("up+mc".into(), rank_sum));
+    let mut rows: Vec<CvRow> = maps
+        .iter()
+        .map(|(name, map)| score_row(held, seen, name, map))
+        .collect();
+    let chance: Vec<CvRow> = chance_maps(held.mesh.positions.len(), 20, 7)
+        .iter()
+        .map(|m| score_row(held, seen, "chance", m))
+        .collect();
+    let mean = |f: fn(&CvRow) -> f64| chance.iter().map(f).sum::<f64>() / chance.len() as f64;
+    rows.push(CvRow {
+        object: held.name.clone(),
+        method: "chance".into(),
+        auc_judd: mean(|r| r.auc_judd),
+        auc_judd_visible: mean(|r| r.auc_judd_visible),
+        lcc: mean(|r| r.lcc),
+    });
+    Ok(rows)
+}
+
+/// Every fold of every scheme of `plan`, and the baselines once per mesh.
+pub fn cross_validate(
+    objects: &[TrainingObject],
+    meshes: &[EvaluationMesh],
+    options: &TrainOptions,
+    protocol: &Protocol,
+    plan: &CvPlan,
+    progress: &dyn Progress,
+) -> Result<CvResult, String> {
+    check_categories(objects, meshes, plan)?;
+    let folds = folds_of(&schemes(objects, plan), meshes, plan);
     progress.start("held-out folds", (folds.len() + meshes.len()) as u64);
     let features: Vec<FeatureMatrix> = meshes
         .par_iter()
@@ -247,7 +324,7 @@ pub fn cross_validate(
         .map(|(scheme, group, without)| {
             let training: Vec<&TrainingObject> = objects
                 .iter()
-                .filter(|o| group_of(*scheme, &o.name, &o.dataset) != *group)
+                .filter(|o| group_of(plan, *scheme, &o.name, &o.dataset) != *group)
                 .collect();
             let dropped: Vec<String> = if *without == "none" {
                 Vec::new()
@@ -261,25 +338,18 @@ pub fn cross_validate(
             let out = meshes
                 .iter()
                 .enumerate()
-                .filter(|(_, m)| group_of(*scheme, &m.name, &m.dataset) == *group)
+                .filter(|(_, m)| group_of(plan, *scheme, &m.name, &m.dataset) == *group)
                 .map(|(i, _)| (i, model.predict_features(&features[i])))
                 .collect();
             progress.advance(1);
             Ok(out)
         })
         .collect::<Result<_, String>>()?;
-    let score = |i: usize, name: &str, map: &[f64]| CvRow {
-        object: meshes[i].name.clone(),
-        method: name.to_string(),
-        auc_judd: auc_judd(map, &meshes[i].positive, None),
-        auc_judd_visible: auc_judd_seen(map, &meshes[i].positive, &seen[i], None),
-        lcc: lcc(map, &meshes[i].values, None),
-    };
     let mut held_out = Vec::new();
     let mut held_out_maps = vec![Vec::new(); meshes.len()];
     for ((scheme, group, without), maps) in folds.iter().zip(predictions) {
         for (i, map) in maps {
-            let r = score(i, "gaze", &map);
+            let r = score_row(&meshes[i], &seen[i], "gaze", &map);
             held_out.push(HeldOutRow {
                 held_out_by: scheme.name().to_string(),
                 group: group.clone(),
@@ -301,39 +371,12 @@ pub fn cross_validate(
     };
     let mut rows = Vec::new();
     for (i, held) in meshes.iter().enumerate() {
-        let mut maps: Vec<(String, Vec<f64>)> = vec![("gaze".into(), held_out_maps[i].clone())];
-        for method in BASELINES {
-            let out = compute_saliency_viewed(
-                method,
-                &held.mesh,
-                &SmsParams::default(),
-                &viewing,
-                &crate::progress::Silent,
-            )
-            .map_err(|e| format!("{}: {}: {e}", held.name, method.name()))?;
-            maps.push((method.name().to_string(), out.values));
-        }
-        let rank_sum: Vec<f64> = {
-            let find = |name: &str| &maps.iter().find(|m| m.0 == name).expect("baseline").1;
-            let (u, c) = (ranks(find("up")), ranks(find("mc")));
-            u.iter().zip(&c).map(|(a, b)| a + b).collect()
-        };
-        maps.push(("up+mc".into(), rank_sum));
-        for (name, map) in &maps {
-            rows.push(score(i, name, map));
-        }
-        let chance: Vec<CvRow> = chance_maps(held.mesh.positions.len(), 20, 7)
-            .iter()
-            .map(|m| score(i, "chance", m))
-            .collect();
-        let mean = |f: fn(&CvRow) -> f64| chance.iter().map(f).sum::<f64>() / chance.len() as f64;
-        rows.push(CvRow {
-            object: held.name.clone(),
-            method: "chance".into(),
-            auc_judd: mean(|r| r.auc_judd),
-            auc_judd_visible: mean(|r| r.auc_judd_visible),
-            lcc: mean(|r| r.lcc),
-        });
+        rows.extend(baseline_rows(
+            held,
+            &seen[i],
+            held_out_maps[i].clone(),
+            &viewing,
+        )?);
         progress.advance(1);
     }
     progress.finish();

@@ -281,7 +281,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     let text = decode(bytes);
     let all = lines(&text);
     let (sep, names, c) = header_row(&all, path)?;
-    let mut header = Header {
+    let header = Header {
         banner: Some("Gazepoint Analysis export".into()),
         date: start_of(&names[c.time]),
         normalized: true,
@@ -379,17 +379,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         });
     }
     let events = fixation_events(fixations, &first_named);
-    let notes = if is_fixation_table(&counts) {
-        rows.events = rows.samples;
-        rows.samples = 0;
-        samples.clear();
-        vec!["Gazepoint fixation export (one row per fixation: its sample counter CNT jumps); positions are fractions of the screen".to_string()]
-    } else {
-        // A fixation table's rows are far apart and irregular: no rate from fewer than 10.
-        header.sample_rate_hz = super::recording::median_rate_hz(&samples, 10);
-        vec!["Gazepoint all-gaze export; positions are fractions of the screen".to_string()]
-    };
-    Ok(Recording {
+    let mut rec = Recording {
         file: path.to_string(),
         format: GazeFormat::Gazepoint,
         header,
@@ -398,6 +388,25 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         messages,
         events,
         rows,
-        notes,
-    })
+        notes: Vec::new(),
+    };
+    tell_table_kind(&mut rec, &counts);
+    Ok(rec)
+}
+
+/// A fixation export repeats the all-gaze columns with one row per fixation (its sample
+/// counter jumps): its rows are events, not samples. Says which kind the file is, and gives
+/// an all-gaze export its sampling rate.
+fn tell_table_kind(rec: &mut Recording, counts: &[f64]) {
+    let note = if is_fixation_table(counts) {
+        rec.rows.events = rec.rows.samples;
+        rec.rows.samples = 0;
+        rec.samples.clear();
+        "Gazepoint fixation export (one row per fixation: its sample counter CNT jumps); positions are fractions of the screen"
+    } else {
+        // A fixation table's rows are far apart and irregular: no rate from fewer than 10.
+        rec.header.sample_rate_hz = super::recording::median_rate_hz(&rec.samples, 10);
+        "Gazepoint all-gaze export; positions are fractions of the screen"
+    };
+    rec.notes.push(note.to_string());
 }
