@@ -3,7 +3,8 @@
 //! finely tessellated region does not outvote a coarse one around the same vertex.
 use std::path::Path;
 
-use super::{load_ground_truth, read_text, vertex_truth_from_values, GroundTruth, TruthError};
+use super::text_table::read_text;
+use super::{load_ground_truth, vertex_truth_from_values, GroundTruth, TruthError};
 use crate::mesh::Mesh;
 
 /// Whether a truth map gives one value per vertex or per face.
