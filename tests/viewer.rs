@@ -180,10 +180,14 @@ fn chromium() -> PathBuf {
 }
 
 fn browser(args: &[&str], url: &str) -> std::process::Output {
+    // One profile folder per call: the tests run side by side, and two browsers sharing a
+    // profile (named by the URL's length before) hand the page to each other and print
+    // nothing, an empty status seen under load.
+    static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+    let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let profile = std::env::temp_dir().join(format!(
-        "meshgaze-chromium-{}-{}",
-        std::process::id(),
-        url.len()
+        "meshgaze-chromium-{}-{call}",
+        std::process::id()
     ));
     let mut cmd = Command::new(chromium());
     cmd.args([
