@@ -185,10 +185,8 @@ fn browser(args: &[&str], url: &str) -> std::process::Output {
     // nothing, an empty status seen under load.
     static CALLS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
     let call = CALLS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let profile = std::env::temp_dir().join(format!(
-        "meshgaze-chromium-{}-{call}",
-        std::process::id()
-    ));
+    let profile =
+        std::env::temp_dir().join(format!("meshgaze-chromium-{}-{call}", std::process::id()));
     let mut cmd = Command::new(chromium());
     cmd.args([
         "--headless",

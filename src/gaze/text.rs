@@ -234,11 +234,56 @@ pub fn is_missing(field: &str) -> bool {
     matches!(field.trim(), "" | "-" | "NA" | "###")
 }
 
+/// A plain decimal (`-12.345`, at most 15 digits, no exponent) as the f64 `str::parse`
+/// gives, found faster; None for anything else, which the caller parses the usual way.
+/// Exact by Clinger's fast path: the digits make an integer below 2^53 and the power of ten is
+/// at most 10^15, both exact doubles, and one IEEE division of exact operands is correctly
+/// rounded, which is what `parse` returns (tested against it). Trackers write every sample's
+/// positions this way, a dozen numbers per row.
+pub(crate) fn plain_decimal(text: &str) -> Option<f64> {
+    const POWERS: [f64; 16] = [
+        1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+    ];
+    let bytes = text.as_bytes();
+    let (negative, digits) = match bytes.first()? {
+        b'-' => (true, &bytes[1..]),
+        b'+' => (false, &bytes[1..]),
+        _ => (false, bytes),
+    };
+    let mut mantissa: u64 = 0;
+    let mut count = 0usize;
+    let mut fraction: Option<usize> = None;
+    for &b in digits {
+        match b {
+            b'0'..=b'9' => {
+                mantissa = mantissa * 10 + u64::from(b - b'0');
+                count += 1;
+                if let Some(f) = fraction.as_mut() {
+                    *f += 1;
+                }
+            }
+            b'.' if fraction.is_none() => fraction = Some(0),
+            _ => return None,
+        }
+        if count > 15 {
+            return None;
+        }
+    }
+    if count == 0 {
+        return None;
+    }
+    let value = mantissa as f64 / POWERS[fraction.unwrap_or(0)];
+    Some(if negative { -value } else { value })
+}
+
 /// A number, accepting a decimal comma when the separator is not a comma; None if missing.
 pub(crate) fn number(field: &str, sep: Separator) -> Result<Option<f64>, ()> {
     let f = field.trim();
     if is_missing(f) {
         return Ok(None);
+    }
+    if let Some(v) = plain_decimal(f) {
+        return Ok(Some(v));
     }
     let parsed = f.parse::<f64>().or_else(|_| {
         if sep != Separator::Comma && f.contains(',') && !f.contains('.') {
@@ -331,5 +376,48 @@ mod tests {
                 }
             }
         }
+    }
+
+    proptest::proptest! {
+        #[test]
+        fn a_plain_decimal_parses_to_the_bits_str_parse_gives(
+            text in "[-+]?[0-9]{0,17}(\\.[0-9]{0,17})?",
+            value in proptest::num::f64::ANY,
+            places in 0usize..12,
+        ) {
+            // Random digit strings, and printed doubles (the form trackers write).
+            let printed = format!("{value:.places$}");
+            for t in [text.as_str(), printed.as_str()] {
+                if let Some(fast) = plain_decimal(t) {
+                    let slow: f64 = t.parse().expect("a plain decimal parses");
+                    proptest::prop_assert_eq!(fast.to_bits(), slow.to_bits(), "{}", t);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn plain_decimals_leave_other_forms_to_the_full_parser() {
+        for t in [
+            "",
+            "-",
+            ".",
+            "1e5",
+            "1,5",
+            "nan",
+            "inf",
+            "0x10",
+            "1.2.3",
+            "1234567890123456",
+        ] {
+            assert_eq!(plain_decimal(t), None, "{t}");
+        }
+        assert_eq!(
+            plain_decimal("-0.0").map(f64::to_bits),
+            Some((-0.0f64).to_bits())
+        );
+        assert_eq!(plain_decimal(".5"), Some(0.5));
+        assert_eq!(plain_decimal("12."), Some(12.0));
+        assert_eq!(plain_decimal("0.45310"), Some(0.4531));
     }
 }
