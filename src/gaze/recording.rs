@@ -132,9 +132,12 @@ impl GazeFormat {
     }
 }
 
+/// Which eye a sample stream or an event is from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
 pub enum Eye {
+    /// The left eye.
     Left,
+    /// The right eye.
     Right,
     /// BeGaze's binocular event stream (`Category Binocular`).
     Binocular,
@@ -144,8 +147,9 @@ pub enum Eye {
 /// it can be used.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct EyeSample {
-    /// Point of regard in calibration-area pixels (origin top-left).
+    /// Point of regard in calibration-area pixels (origin top-left), horizontal.
     pub x: f64,
+    /// Point of regard, vertical (pixels down from the top).
     pub y: f64,
     /// Pupil: mapped diameter in mm when exported, else the camera diameter in px.
     pub pupil: Option<f64>,
@@ -158,21 +162,28 @@ pub struct EyeSample {
     pub flag_lost: bool,
 }
 
+/// One row of gaze samples: both eyes as the file gives them, kept even when invalid.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Sample {
     /// Tracker clock in microseconds (an arbitrary epoch; not uniform, pauses jump).
     pub time_us: i64,
+    /// The trial (SMI's `Trial` column; 1 for formats without trials).
     pub trial: u32,
+    /// The left eye, when the file has it.
     pub left: Option<EyeSample>,
+    /// The right eye, when the file has it.
     pub right: Option<EyeSample>,
     /// BeGaze's binocular point of regard (format C2), when exported.
     pub binocular: Option<EyeSample>,
-    /// BeGaze's binocular event category (`Visual Intake`, `Saccade`, `Blink`, `-`; C2).
+    /// The exporter's binocular event label: BeGaze C2's category (`Visual Intake`, `Saccade`,
+    /// `Blink`, `-`), Tobii's `Eye movement type`.
     pub binocular_event: Option<String>,
-    /// BeGaze's per-eye event labels (`Fixation`, `Saccade`, `Blink`, `-`), when exported.
+    /// The left eye's event label from the exporter (BeGaze's `Fixation`, `Saccade`, `Blink`, `-`), when exported.
     pub left_event: Option<String>,
+    /// The right eye's event label, as `left_event`.
     pub right_event: Option<String>,
-    /// BeGaze's `Stimulus` column, when exported.
+    /// The stimulus the row names (BeGaze's `Stimulus` column, Tobii's `Presented Media
+    /// name`, Gazepoint's `MEDIA_NAME`), when the file has one; consecutive rows share one copy.
     pub stimulus: Option<std::sync::Arc<str>>,
 }
 
@@ -215,41 +226,61 @@ pub(crate) fn median_rate_hz(samples: &[Sample], min_intervals: usize) -> Option
     Some((1e6 / *median as f64).round())
 }
 
+/// A message the experiment program logged (or an event column turned into one): stimulus
+/// onsets, status text, anything; never assumed to be a clean stimulus name.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Message {
+    /// Tracker clock in microseconds.
     pub time_us: i64,
+    /// The trial it belongs to (1 for formats without trials).
     pub trial: u32,
     /// The text after `# Message: ` (or the whole description when that prefix is absent).
     pub text: String,
 }
 
+/// What an event is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 pub enum EventKind {
+    /// A fixation.
     Fixation,
+    /// A saccade.
     Saccade,
+    /// A blink.
     Blink,
 }
 
 /// A fixation, saccade or blink as an event export records it, one per eye.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Event {
+    /// Fixation, saccade or blink.
     pub kind: EventKind,
+    /// The eye (or the binocular stream) it was detected in.
     pub eye: Eye,
+    /// The trial it belongs to (1 for formats without trials).
     pub trial: u32,
+    /// Its number in the file's own count (per eye and kind).
     pub number: u64,
+    /// Start, tracker clock in microseconds.
     pub start_us: i64,
+    /// End, tracker clock in microseconds.
     pub end_us: i64,
+    /// Duration as the file gives it (µs); may differ from `end_us - start_us` by a sample.
     pub duration_us: i64,
-    /// Fixation location, or saccade start location (px).
+    /// Fixation location, or saccade start location (px), horizontal.
     pub x: Option<f64>,
+    /// Fixation location, or saccade start location (px), vertical.
     pub y: Option<f64>,
-    /// Saccade end location (px).
+    /// Saccade end location (px), horizontal.
     pub end_x: Option<f64>,
+    /// Saccade end location (px), vertical.
     pub end_y: Option<f64>,
+    /// A fixation's horizontal dispersion (px), when exported.
     pub dispersion_x: Option<f64>,
+    /// A fixation's vertical dispersion (px), when exported.
     pub dispersion_y: Option<f64>,
-    /// Average pupil size X, Y (camera px) of a fixation.
+    /// Average pupil size X (camera px) of a fixation.
     pub pupil_x: Option<f64>,
+    /// Average pupil size Y (camera px) of a fixation.
     pub pupil_y: Option<f64>,
     /// The stimulus the export names for this event (format B), when it does.
     pub stimulus: Option<String>,
@@ -298,15 +329,23 @@ impl Event {
 /// Header facts meshgaze uses; every raw `key: value` line is kept too.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct Header {
+    /// The file's first line or the exporter's name (`Tobii Pro Lab data export`).
     pub banner: Option<String>,
+    /// Every `key: value` line of the header, as written.
     pub entries: Vec<(String, String)>,
+    /// Samples per second, from the header or the median interval between samples.
     pub sample_rate_hz: Option<f64>,
+    /// The screen (calibration area) in pixels: width, height.
     pub calibration_area_px: Option<[f64; 2]>,
+    /// The stimulus's physical size in mm: width, height.
     pub stimulus_dimension_mm: Option<[f64; 2]>,
+    /// The subject's distance from the screen in mm.
     pub head_distance_mm: Option<f64>,
+    /// The subject (participant) the file names.
     pub subject: Option<String>,
     /// `dd.mm.yyyy HH:MM:SS` as written (the tracker PC's local time).
     pub date: Option<chrono::NaiveDateTime>,
+    /// The exporting software's version, when written.
     pub version: Option<String>,
     /// `## Format:` items (LEFT, RIGHT, POR, …).
     pub format_items: Vec<String>,
@@ -318,26 +357,37 @@ pub struct Header {
 /// Where the first row with a problem was, so a user can look at it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct FirstSeen {
+    /// How many lines had this problem.
     pub count: usize,
+    /// 1-based line of the first.
     pub line: usize,
+    /// 1-based column of the first.
     pub column: usize,
+    /// The first such line (up to 120 characters).
     pub example: String,
 }
 
 /// Every line of the file, accounted for.
 #[derive(Debug, Clone, Default, PartialEq, Serialize)]
 pub struct RowAccount {
+    /// Lines in the file.
     pub lines: usize,
+    /// Header lines (column names, `##` blocks, `key: value` lines).
     pub header_lines: usize,
+    /// Empty lines.
     pub blank_lines: usize,
+    /// Lines read as samples.
     pub samples: usize,
+    /// Lines read as messages.
     pub messages: usize,
+    /// Lines read as events.
     pub events: usize,
     /// Lines that could not be used, by reason (with the first one's position).
     pub unusable: BTreeMap<String, FirstSeen>,
 }
 
 impl RowAccount {
+    /// Counts one unusable line under `reason`, remembering the first one's place.
     pub fn reject(&mut self, reason: &str, line: usize, column: usize, example: &str) {
         let e = self
             .unusable
@@ -351,6 +401,7 @@ impl RowAccount {
         e.count += 1;
     }
 
+    /// Unusable lines, every reason together.
     pub fn unusable_total(&self) -> usize {
         self.unusable.values().map(|f| f.count).sum()
     }
@@ -366,16 +417,25 @@ impl RowAccount {
     }
 }
 
+/// One recording file, read: its format, header, samples, messages and events, and an account
+/// of every line.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct Recording {
+    /// The file, as named to the reader.
     pub file: String,
+    /// The format it was read as (detected from content, or forced).
     pub format: GazeFormat,
+    /// Its header facts.
     pub header: Header,
     /// Column names of the sample table, or of each event table.
     pub columns: Vec<String>,
+    /// Every sample row, in file order.
     pub samples: Vec<Sample>,
+    /// Every message, in file order.
     pub messages: Vec<Message>,
+    /// The exporter's events (fixations, saccades, blinks), in file order.
     pub events: Vec<Event>,
+    /// Every line of the file, accounted for.
     pub rows: RowAccount,
     /// Format quirks met (e.g. "fields separated by runs of spaces").
     pub notes: Vec<String>,
