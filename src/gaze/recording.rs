@@ -173,7 +173,8 @@ pub struct Sample {
     pub left: Option<EyeSample>,
     /// The right eye, when the file has it.
     pub right: Option<EyeSample>,
-    /// BeGaze's binocular point of regard (format C2), when exported.
+    /// The binocular (combined) point of regard, when the file gives one: BeGaze C2's, Tobii's
+    /// `Gaze point X/Y`, Gazepoint's `BPOG`.
     pub binocular: Option<EyeSample>,
     /// The exporter's binocular event label: BeGaze C2's category (`Visual Intake`, `Saccade`,
     /// `Blink`, `-`), Tobii's `Eye movement type`.
