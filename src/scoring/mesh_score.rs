@@ -27,16 +27,23 @@ pub enum Weighting {
     Area,
 }
 
+/// How one mesh is scored; the defaults are the paper's (21 blur widths 0–0.2, 20 chance
+/// maps, 100 random human splits).
 #[derive(Debug, Clone, Serialize)]
 pub struct ScoreParams {
     /// Blur widths σ_b in normalized units (half bounding-box diagonal = 1).
     pub blur_sigmas: Vec<f64>,
+    /// How vertices count in the metrics.
     pub weighting: Weighting,
+    /// Random negative sets behind AUC-Borji.
     pub borji_splits: usize,
+    /// Seed of every random step (chance maps, human splits, AUC-Borji's negatives).
     pub seed: u64,
     /// Random split-halves when a set has more than 8 subjects (else all splits).
     pub human_random_splits: usize,
+    /// The box whose half diagonal is the unit of σ_b.
     pub bounding_box: BoundingBox,
+    /// How maps are blurred over the surface.
     pub kernel: BlurKernel,
     /// Random maps behind the chance band; the first is the single chance map of old.
     pub chance_maps: usize,
@@ -57,42 +64,64 @@ impl Default for ScoreParams {
     }
 }
 
+/// One number of a score: a method's (or chance's, or the human ceiling's) metric at a blur.
 #[derive(Debug, Clone, Serialize)]
 pub struct ScoreRow {
+    /// The map's name, or [`CHANCE`], [`CHANCE_LOW`], [`CHANCE_HIGH`], [`HUMAN`].
     pub method: String,
+    /// `auc_judd`, `auc_judd_visible`, `auc_borji`, `lcc`, `nss`, `sim`, `kl`.
     pub metric: &'static str,
+    /// σ_b, in normalized units.
     pub blur: f64,
+    /// The metric's value.
     pub value: f64,
 }
 
+/// One method's headline numbers on a mesh.
 #[derive(Debug, Clone, Serialize)]
 pub struct MethodSummary {
+    /// The map's name.
     pub method: String,
+    /// AUC-Judd of the map as given (σ_b = 0).
     pub auc_judd_unblurred: f64,
     /// AUC-Judd unblurred with never-shown vertices left out of the negatives (NaN when the
     /// scoring had no visibility).
     pub auc_judd_visible_unblurred: f64,
+    /// The best AUC-Judd over the blur grid.
     pub auc_judd_peak: f64,
+    /// The σ_b of that best AUC-Judd.
     pub auc_judd_peak_blur: f64,
     /// The chance maps' mean AUC-Judd at the same blur as this method's peak, and the 2.5th
     /// and 97.5th percentiles of their values there.
     pub chance_auc_judd_at_peak: f64,
+    /// The chance maps' 2.5th percentile there.
     pub chance_auc_judd_low_at_peak: f64,
+    /// The chance maps' 97.5th percentile there.
     pub chance_auc_judd_high_at_peak: f64,
+    /// LCC of the map as given against the truth density.
     pub lcc_unblurred: f64,
+    /// The best LCC over the blur grid.
     pub lcc_peak: f64,
+    /// The σ_b of that best LCC.
     pub lcc_peak_blur: f64,
+    /// NSS of the map as given.
     pub nss_unblurred: f64,
+    /// Gini index of the map as given (its sparsity).
     pub gini_unblurred: f64,
 }
 
+/// Everything [`score_mesh`] computes on one mesh.
 #[derive(Debug, Clone, Serialize)]
 pub struct MeshScore {
+    /// Every metric of every map, the chance band and the human ceiling at every blur.
     pub rows: Vec<ScoreRow>,
+    /// One summary per map, in the order given.
     pub summaries: Vec<MethodSummary>,
     /// Ordered (predictor, target) subject splits behind the human curve; 0 if none.
     pub human_splits: usize,
+    /// Positive vertices of the truth (fixated, or the top fraction of a map).
     pub positives: usize,
+    /// Fixations of a fixation set (0 for a per-vertex map).
     pub fixations: usize,
     /// AUC-Judd of every chance map at every blur, (σ_b, one value per map): what a band over
     /// several meshes is computed from (see [`chance_band_of_mean`]).
@@ -137,9 +166,12 @@ pub fn chance_band_of_mean(
     Ok(band)
 }
 
-/// The chance band: mean, 2.5th and 97.5th percentiles over the random maps, per metric and blur.
+/// The chance band's mean over the random maps (per metric and blur), as a method name in
+/// score rows.
 pub const CHANCE: &str = "chance";
+/// The chance band's 2.5th percentile, as a method name in score rows.
 pub const CHANCE_LOW: &str = "chance_p2.5";
+/// The chance band's 97.5th percentile, as a method name in score rows.
 pub const CHANCE_HIGH: &str = "chance_p97.5";
 
 /// The q-quantile (0..=1) of `values` by linear interpolation between order statistics
@@ -162,6 +194,7 @@ pub fn chance_maps(n: usize, count: usize, seed: u64) -> Vec<Vec<f64>> {
         .map(|_| (0..n).map(|_| rng.random::<f64>()).collect())
         .collect()
 }
+/// The split-half human ceiling, as a method name in score rows.
 pub const HUMAN: &str = "human";
 
 /// Subject index sets (predictor, target) for the split-half ceiling.
