@@ -36,17 +36,22 @@ use serde::Serialize;
 /// were removed while loading and are counted in [`LoadReport`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Mesh {
+    /// Vertex positions, in the file's order (per-vertex maps and truth files follow it).
     pub positions: Vec<DVec3>,
+    /// Triangles as three indices into `positions`, with the file's winding.
     pub triangles: Vec<[u32; 3]>,
 }
 
 /// What a reader found and what it had to leave out; copied into every output's provenance.
 #[derive(Debug, Clone, Default, Serialize, PartialEq, Eq)]
 pub struct LoadReport {
+    /// The format read (`obj`, `off`, `ply-ascii`, `ply-binary_little_endian`, ...).
     pub format: String,
+    /// Vertices in the file (all kept).
     pub vertices: usize,
     /// Faces (polygons or strip triangles) as stored in the file.
     pub faces_in_file: usize,
+    /// Triangles kept.
     pub triangles: usize,
     /// Polygons with more than three corners, split into a triangle fan.
     pub polygons_triangulated: usize,
@@ -94,15 +99,18 @@ impl Mesh {
         }
     }
 
+    /// The corner positions of triangle `t`.
     pub fn triangle(&self, t: usize) -> [DVec3; 3] {
         self.triangles[t].map(|i| self.positions[i as usize])
     }
 
+    /// The area of triangle `t`.
     pub fn triangle_area(&self, t: usize) -> f64 {
         let [a, b, c] = self.triangle(t);
         0.5 * (b - a).cross(c - a).length()
     }
 
+    /// The total area of the surface.
     pub fn surface_area(&self) -> f64 {
         (0..self.triangles.len())
             .map(|t| self.triangle_area(t))
