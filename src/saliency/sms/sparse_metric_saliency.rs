@@ -27,6 +27,7 @@ use crate::saliency::sms::descriptors::{
 use crate::scoring::gini_index;
 
 /// Where descriptor samples read the Gaussian distance field from.
+/// How the distance field behind the descriptors is evaluated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
@@ -38,20 +39,28 @@ pub enum FieldKind {
     Exact,
 }
 
+/// The parameters of the sparse metric-based saliency; the defaults are the paper's.
 #[derive(Debug, Clone, Serialize)]
 pub struct SmsParams {
     /// Random surface samples n (paper: 5000).
     pub samples: usize,
+    /// Seed of the surface sampling (the only random step).
     pub seed: u64,
+    /// The multi-scale harmonic shape descriptors (scales, shells, bands).
     pub descriptor: DescriptorParams,
+    /// How the distance field is evaluated.
     pub field: FieldKind,
+    /// The distance-field grid (resolution, Gaussian smoothing).
     pub grid: GridParams,
     /// Fraction of samples allowed to be non-zero (paper: 0.2).
     pub mu: f64,
     /// Interpolation Gaussian σ in normalized units (paper: 0.02), radius 3σ.
     pub sigma: f64,
+    /// How sample saliency is carried back to vertices.
     pub interpolation: InterpolationKind,
+    /// The box the mesh is normalized by (its half diagonal becomes 1).
     pub bounding_box: BoundingBox,
+    /// The power iterations' tolerance and limits.
     pub power: PowerParams,
     /// Uniform random points (the paper) or Poisson-disk (its future work, §6).
     pub sampling: Sampling,
@@ -76,6 +85,7 @@ impl Default for SmsParams {
 }
 
 impl SmsParams {
+    /// Refuses parameters the method cannot run with, naming the command-line option.
     pub fn validate(&self) -> Result<(), String> {
         if self.samples < 2 {
             return Err(format!(
@@ -122,6 +132,7 @@ pub struct SmsExtras {
     pub dense: bool,
 }
 
+/// Seconds of the paper's three steps (Table 3's columns).
 #[derive(Debug, Clone, Serialize)]
 pub struct StepTimings {
     /// A: normalization, sampling, distance field, descriptors.
@@ -132,29 +143,46 @@ pub struct StepTimings {
     pub b_saliency_s: f64,
     /// C: interpolation to vertices.
     pub c_interpolation_s: f64,
+    /// The whole run.
     pub total_s: f64,
 }
 
+/// What a run did, for the JSON sidecar: the frame, the field, the convergence of both power
+/// iterations, the interpolation, the sparsity and the time of each step.
 #[derive(Debug, Clone, Serialize)]
 pub struct SmsReport {
+    /// The normalization applied (centre, scale, box).
     pub normalization: Normalization,
+    /// The distance-field grid's voxel size, normalized units (None: exact field).
     pub grid_voxel_size: Option<f64>,
+    /// The Gaussian smoothing σ of the distance field, normalized units.
     pub gedt_sigma: Option<f64>,
+    /// The metric's principal eigenvalue and its convergence.
     pub principal_eigenvalue: EigenReport,
+    /// The truncated power method's convergence and support.
     pub truncated_power: TruncatedPowerReport,
+    /// How the samples were carried to vertices.
     pub interpolation: InterpolationReport,
+    /// Gini index of the vertex map.
     pub gini_vertices: f64,
+    /// Gini index of the sample saliency.
     pub gini_samples: f64,
+    /// Seconds per step.
     pub timings: StepTimings,
 }
 
+/// One of the optional maps ([`SmsExtras`]).
 #[derive(Debug, Clone)]
 pub struct ExtraMap {
+    /// `scale<r>` (one per descriptor radius) or `dense`: the suffix of its files.
     pub name: String,
+    /// One value per input vertex, in [0, 1].
     pub vertex_saliency: Vec<f64>,
+    /// Its Gini index.
     pub gini: f64,
 }
 
+/// What [`sparse_metric_saliency`] returns.
 #[derive(Debug, Clone)]
 pub struct SmsResult {
     /// One value per input vertex, in input order, in [0, 1].
@@ -163,7 +191,9 @@ pub struct SmsResult {
     pub sample_points: Vec<DVec3>,
     /// The sparse unit eigenvector (≥ 0, at most μn non-zeros).
     pub sample_saliency: Vec<f64>,
+    /// The extra maps asked for.
     pub extras: Vec<ExtraMap>,
+    /// What the run did.
     pub report: SmsReport,
 }
 
