@@ -52,7 +52,7 @@ pub mod progress;
 pub mod projection;
 pub mod protocol;
 pub mod provenance;
-pub mod random;
+pub(crate) mod random;
 pub mod report;
 pub mod saliency;
 pub mod scoring;

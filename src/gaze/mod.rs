@@ -4,25 +4,25 @@
 //! record model ([`Recording`]). Nothing is dropped silently: every line of a file is a
 //! header line, a blank line, a sample, a message, an event, or counted as unusable with its
 //! reason and the position of the first such line.
-pub mod begaze_fixations;
-pub mod begaze_raw;
-pub mod event_statistics;
-pub mod event_tables;
+pub(crate) mod begaze_fixations;
+pub(crate) mod begaze_raw;
+pub(crate) mod event_statistics;
+pub(crate) mod event_tables;
 pub mod eyelink;
 pub mod fixation_table;
 pub mod fixations;
-pub mod gazepoint;
-pub mod idf_samples;
+pub(crate) mod gazepoint;
+pub(crate) mod idf_samples;
 pub mod ingest;
-pub mod iview_legacy;
-pub mod pupil_labs;
+pub(crate) mod iview_legacy;
+pub(crate) mod pupil_labs;
 pub mod quality;
 pub mod recording;
 pub mod stimulus_messages;
 pub mod text;
-pub mod tobii;
-pub mod tobii_lists;
-pub mod tobii_sdk;
+pub(crate) mod tobii;
+pub(crate) mod tobii_lists;
+pub(crate) mod tobii_sdk;
 pub mod validity;
 pub mod writers;
 

@@ -370,18 +370,18 @@ impl Reader<'_> {
         };
         let t_us = (t * self.scale).round() as i64;
         if self.header.subject.is_none() {
-            self.header.subject = self.get(&f, self.c.participant).map(str::to_string);
+            self.header.subject = self.get(f, self.c.participant).map(str::to_string);
         }
-        self.screen_of(&f);
+        self.screen_of(f);
         let stimulus = self.stimulus_of(f);
         if let Some(s) = &stimulus {
             if !self.first_named.contains_key(&**s) {
                 self.first_named.insert(s.to_string(), t_us);
             }
         }
-        let event = self.get(&f, self.c.event).map(str::to_string);
+        let event = self.get(f, self.c.event).map(str::to_string);
         if let Some(ev) = &event {
-            let value = self.get(&f, self.c.event_value).unwrap_or("");
+            let value = self.get(f, self.c.event_value).unwrap_or("");
             if ev.ends_with("Start") && !value.is_empty() {
                 self.start_events.entry(value.to_string()).or_insert(t_us);
             }
@@ -391,7 +391,7 @@ impl Reader<'_> {
                 text: format!("{ev} {value}").trim_end().to_string(),
             });
         }
-        let sensor = self.get(&f, self.c.sensor);
+        let sensor = self.get(f, self.c.sensor);
         // Pro Lab says which sensor a row is from; Studio's rows are gaze unless they carry
         // only an event.
         let gaze_row = match (self.c.sensor.is_some(), sensor) {
@@ -406,7 +406,7 @@ impl Reader<'_> {
                 false
             }
             (true, None) => false,
-            (false, _) => event.is_none() || self.has_gaze(&f),
+            (false, _) => event.is_none() || self.has_gaze(f),
         };
         if !gaze_row {
             if event.is_some() {
@@ -418,7 +418,7 @@ impl Reader<'_> {
             return;
         }
         // A gaze row: a sample (its event, when it has one, is a message as well).
-        match self.sample(&f, t_us, stimulus) {
+        match self.sample(f, t_us, stimulus) {
             Ok(()) => self.rows.samples += 1,
             Err(i) => {
                 let reason = format!("`{}` is not a number", self.names[i]);

@@ -8,10 +8,10 @@
 pub mod boosted_trees;
 
 pub mod features;
-pub mod local_shape;
-pub mod shape_contrast;
+pub(crate) mod local_shape;
+pub(crate) mod shape_contrast;
 pub mod surface_points;
-pub mod view_visibility;
+pub(crate) mod view_visibility;
 
 use std::path::Path;
 

@@ -49,10 +49,6 @@ impl EdgeGraph {
         }
     }
 
-    pub fn vertex_count(&self) -> usize {
-        self.offsets.len() - 1
-    }
-
     pub fn neighbours_of(&self, v: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
         let r = self.offsets[v]..self.offsets[v + 1];
         self.neighbours[r.clone()]

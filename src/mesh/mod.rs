@@ -4,21 +4,21 @@
 //! (saliency, ground truth) is indexed by the input file's vertex numbering.
 
 pub mod clustered_gaussian_average;
-pub mod edge_graph;
+pub(crate) mod edge_graph;
 mod error;
 pub mod geometry;
 pub mod mean_curvature;
-pub mod nearest_vertex_transfer;
+pub(crate) mod nearest_vertex_transfer;
 mod obj;
 mod off;
-pub mod over_segmentation;
+pub(crate) mod over_segmentation;
 mod ply;
 mod read;
 pub mod sampling;
 pub mod simplification;
 mod subdivide;
 pub mod test_meshes;
-pub mod vertex_areas;
+pub(crate) mod vertex_areas;
 mod write_obj;
 mod write_ply;
 

@@ -23,10 +23,6 @@ impl Patches {
         self.centres.len()
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.centres.is_empty()
-    }
-
     /// Shortest distances between patch centres through the patch adjacency graph, each
     /// step the straight distance between neighbouring centres: a coarse geodesic distance
     /// (infinite between components).

@@ -7,7 +7,7 @@
 mod fates;
 pub mod project_file;
 mod project_fixations;
-pub mod ray_caster;
+pub(crate) mod ray_caster;
 pub mod round_trip;
 mod screen_mapping;
 pub mod self_check;

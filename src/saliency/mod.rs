@@ -2,7 +2,7 @@
 mod error;
 pub mod lee_mesh_saliency;
 pub mod map_file;
-pub mod mean_curvature_saliency;
+pub(crate) mod mean_curvature_saliency;
 pub mod method;
 pub mod point_cloud;
 pub mod rarity;

@@ -2,9 +2,9 @@
 pub mod auc;
 pub mod dataset;
 pub mod gini;
-pub mod ground_truth;
-pub mod lattice_gauss_transform;
-pub mod map_agreement;
+pub(crate) mod ground_truth;
+pub(crate) mod lattice_gauss_transform;
+pub(crate) mod map_agreement;
 pub mod mesh_score;
 pub mod surface_blur;
 

@@ -206,7 +206,7 @@ fn column_major(rows: &[f64], k: usize) -> Vec<Vec<f64>> {
 /// Sparse maps (fixation counts: a few hundred non-zero vertices) are summed exactly from their
 /// non-zero vertices, however large σ is. The dense maps and the common denominator are summed
 /// directly over the neighbourhoods; with the full Gaussian, where a direct sum would cost more,
-/// by the lattice Gauss transform ([`crate::scoring::lattice_gauss_transform`], within 10⁻⁵
+/// by the lattice Gauss transform (`scoring/lattice_gauss_transform.rs`, within 10⁻⁵
 /// of the map's range): one pass per σ for every map.
 pub struct GaussianBlur {
     direct: SurfaceBlur,

@@ -3,11 +3,11 @@
 pub mod camera;
 mod error;
 mod frame_loop;
-pub mod h264_repeat;
+pub(crate) mod h264_repeat;
 pub mod hold_views;
 pub mod load;
 mod manifest;
-pub mod overlay;
+pub(crate) mod overlay;
 
 pub mod raster;
 mod timeline;

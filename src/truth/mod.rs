@@ -2,7 +2,7 @@
 //! a per-vertex map (one value per vertex, optionally with a 0/1 "fixated" flag, as in the
 //! `time bin` files of the VR dataset), or a fixation set (CSV with `subject` and `vertex`
 //! columns, one row per fixation, as `meshgaze truth` writes).
-pub mod build;
+pub(crate) mod build;
 mod density_file;
 mod error;
 mod face_map;

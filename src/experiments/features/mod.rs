@@ -2,8 +2,8 @@
 //! marks (Dutagaci et al. 2012), on geodesic distances.
 pub mod evaluation_files;
 pub mod feature_points;
-pub mod geodesic;
-pub mod interest_point_benchmark;
+pub(crate) mod geodesic;
+pub(crate) mod interest_point_benchmark;
 pub mod marks;
 
 pub use feature_points::{feature_points, local_maxima, FeaturePoint};

@@ -2,13 +2,13 @@
 //! 2013) and MR (Tao et al. 2015). They share a simplified, normalized working copy of the
 //! mesh, geodesic patches and local shape descriptors; docs/baselines.md says where each
 //! follows its paper and where it had to choose.
-pub mod global_rarity;
-pub mod manifold_ranking;
-pub mod pca;
-pub mod spin_images;
-pub mod surface_regions_of_interest;
-pub mod working_copy;
-pub mod zernike_height_map;
+pub(crate) mod global_rarity;
+pub(crate) mod manifold_ranking;
+pub(crate) mod pca;
+pub(crate) mod spin_images;
+pub(crate) mod surface_regions_of_interest;
+pub(crate) mod working_copy;
+pub(crate) mod zernike_height_map;
 
 pub use global_rarity::{global_rarity_saliency, GrParams};
 pub use manifold_ranking::{manifold_ranking_saliency, MrParams};

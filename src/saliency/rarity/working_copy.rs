@@ -73,10 +73,6 @@ impl WorkingCopy {
         self.mesh.positions.len()
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.mesh.positions.is_empty()
-    }
-
     /// Working vertices within `radius` of `p`, in index order (so sums over them do not
     /// depend on the tree's traversal).
     pub fn within(&self, p: DVec3, radius: f64) -> Vec<usize> {

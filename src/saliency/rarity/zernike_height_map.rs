@@ -43,10 +43,6 @@ impl ZernikeBasis {
         self.terms.len()
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.terms.is_empty()
-    }
-
     fn radial_value(&self, term: usize, rho_powers: &[f64]) -> f64 {
         let (n, _) = self.terms[term];
         self.radial[term]
