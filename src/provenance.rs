@@ -6,10 +6,14 @@ use std::path::Path;
 use serde::Serialize;
 use sha2::{Digest, Sha256};
 
+/// One input of an output: its path, SHA-256 and size.
 #[derive(Debug, Clone, Serialize)]
 pub struct InputFile {
+    /// The path as given (or the name of a built-in input).
     pub path: String,
+    /// SHA-256 of its bytes, lowercase hex.
     pub sha256: String,
+    /// Its size in bytes.
     pub bytes: u64,
 }
 
@@ -23,6 +27,7 @@ impl InputFile {
         }
     }
 
+    /// The file at `path`, hashed as it is read.
     pub fn hash(path: &Path) -> std::io::Result<InputFile> {
         let mut file = std::fs::File::open(path)?;
         let mut hasher = Sha256::new();
@@ -44,6 +49,7 @@ impl InputFile {
     }
 }
 
+/// SHA-256 of `data`, lowercase hex.
 pub fn sha256_hex(data: &[u8]) -> String {
     hex(&Sha256::digest(data))
 }
@@ -55,14 +61,18 @@ fn hex(bytes: &[u8]) -> String {
 /// The header every JSON sidecar starts with.
 #[derive(Debug, Clone, Serialize)]
 pub struct Provenance {
+    /// `meshgaze`.
     pub tool: &'static str,
+    /// The crate version that wrote the output.
     pub version: &'static str,
     /// The command line as given.
     pub command: Vec<String>,
+    /// Every input file with its hash.
     pub inputs: Vec<InputFile>,
 }
 
 impl Provenance {
+    /// This process's provenance over `inputs`.
     pub fn new(inputs: Vec<InputFile>) -> Provenance {
         Provenance {
             tool: env!("CARGO_PKG_NAME"),

@@ -7,6 +7,7 @@ use serde::Serialize;
 /// A per-vertex human map.
 #[derive(Debug, Clone, Serialize)]
 pub struct VertexTruth {
+    /// One value per vertex, in mesh order.
     pub values: Vec<f64>,
     /// Vertices counted as fixated for AUC and NSS.
     pub positive: Vec<bool>,
@@ -14,27 +15,35 @@ pub struct VertexTruth {
     pub positive_rule: String,
 }
 
+/// One fixation on the mesh: who made it and the vertex it landed on.
 #[derive(Debug, Clone, Serialize, PartialEq, Eq)]
 pub struct Fixation {
+    /// The subject's id.
     pub subject: String,
+    /// The vertex, an index into the mesh's positions.
     pub vertex: usize,
 }
 
 /// Fixations with subject ids, already projected to vertices.
 #[derive(Debug, Clone, Serialize)]
 pub struct FixationTruth {
+    /// The fixations on the mesh, in file order.
     pub fixations: Vec<Fixation>,
     /// Subject ids in first-seen order.
     pub subjects: Vec<String>,
+    /// Rows read, on the mesh or not.
     pub rows: usize,
     /// Rows whose `fate` says the fixation did not land on the mesh, by fate.
     pub rows_not_on_mesh: BTreeMap<String, usize>,
 }
 
+/// What a map is scored against.
 #[derive(Debug, Clone, Serialize)]
 #[serde(tag = "kind", rename_all = "snake_case")]
 pub enum GroundTruth {
+    /// A per-vertex human map.
     VertexMap(VertexTruth),
+    /// Fixations with their subjects (gives the human ceiling).
     Fixations(FixationTruth),
 }
 
