@@ -10,12 +10,17 @@ use super::{nearest_corner, Hit, ProjectionFate, RayCaster, ScreenMapping};
 /// A fixation to project: times in ms after the stimulus onset.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ScreenFixation {
+    /// The subject's id.
     pub subject: String,
     /// Order of the fixation within the subject's viewing of this stimulus (0-based).
     pub index: usize,
+    /// Start, ms after the stimulus onset.
     pub start_ms: f64,
+    /// Duration, ms.
     pub duration_ms: f64,
+    /// Position on the tracker's screen, px, horizontal.
     pub x_px: f64,
+    /// Position on the tracker's screen, px, vertical.
     pub y_px: f64,
     /// The ingest filter's verdict: false when it removed the fixation.
     pub kept: bool,
@@ -23,20 +28,26 @@ pub struct ScreenFixation {
     pub invalid: bool,
 }
 
+/// How fixations are projected.
 #[derive(Debug, Clone, Serialize)]
 pub struct ProjectionParams {
+    /// Which camera a fixation that overlaps a move is projected with.
     pub during_move: DuringMove,
     /// Background misses look for the nearest visible surface within this many screen pixels
     /// (the tracker's accuracy); None keeps them as background.
     pub snap_radius_px: Option<f64>,
     /// Gaussian cone: half-angle and σ in screen pixels (None = single ray).
     pub cone: Option<Cone>,
+    /// The video's frame rate: a fixation is projected with the frame on screen.
     pub fps: u32,
 }
 
+/// A Gaussian cone of rays around the gaze ray, for a footprint instead of one vertex.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Cone {
+    /// Radius of the sampled disk, screen px.
     pub radius_px: f64,
+    /// The Gaussian's σ, screen px.
     pub sigma_px: f64,
     /// Rays per pixel of radius along each axis of the sampling grid.
     pub rays_per_radius: usize,
@@ -45,22 +56,33 @@ pub struct Cone {
 /// One projected fixation.
 #[derive(Debug, Clone, PartialEq)]
 pub struct ProjectedFixation {
+    /// The subject's id.
     pub subject: String,
+    /// The fixation's index among the subject's fixations of this stimulus.
     pub index: usize,
+    /// Start, ms after the stimulus onset.
     pub start_ms: f64,
+    /// Duration, ms.
     pub duration_ms: f64,
+    /// Screen position on the tracker's screen, px, horizontal.
     pub screen_x: f64,
+    /// Screen position, px, vertical.
     pub screen_y: f64,
     /// Stimulus time whose camera was used (the displayed frame's time), s.
     pub camera_time_s: Option<f64>,
+    /// What the camera was doing then.
     pub phase: Option<Phase>,
+    /// The hold viewpoint (0-based) during a hold.
     pub viewpoint: Option<usize>,
+    /// The triangle the ray hit.
     pub triangle: Option<usize>,
     /// Where the (possibly snapped) ray met the surface.
     pub point: Option<DVec3>,
+    /// The nearest corner of that triangle: the fixated vertex.
     pub vertex: Option<usize>,
     /// Screen distance of a snap, px.
     pub snap_px: Option<f64>,
+    /// What became of the fixation.
     pub fate: ProjectionFate,
     /// Cone mode: vertices and weights (sum 1) of this fixation's Gaussian footprint.
     pub footprint: Vec<(usize, f64)>,

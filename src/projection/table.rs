@@ -10,23 +10,41 @@ use serde::{Deserialize, Serialize};
 use super::{ProjectedFixation, ProjectionFate};
 use crate::stimulus::camera::Phase;
 
+/// One row of projected.csv: a fixation, where it was on screen, which camera it was
+/// projected with, where it landed on the mesh and its fate.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ProjectedRow {
+    /// The subject's id.
     pub subject: String,
+    /// The fixation's index among the subject's fixations of this stimulus.
     pub fixation: usize,
+    /// Start, ms after the stimulus onset.
     pub start_ms: f64,
+    /// Duration, ms.
     pub duration_ms: f64,
+    /// Screen position on the tracker's screen, px, horizontal.
     pub screen_x: f64,
+    /// Screen position, px, vertical (down from the top).
     pub screen_y: f64,
+    /// The stimulus time whose camera was used (the displayed frame's time), s.
     pub camera_time_s: Option<f64>,
+    /// `hold`, `move` or `ended`: what the camera was doing then.
     pub phase: Option<String>,
+    /// The hold viewpoint (0-based) during a hold.
     pub viewpoint: Option<usize>,
+    /// The triangle the ray hit.
     pub triangle: Option<usize>,
+    /// The nearest corner of that triangle: the fixated vertex.
     pub vertex: Option<usize>,
+    /// Where the ray met the surface, mesh coordinates, x.
     pub x: Option<f64>,
+    /// Where the ray met the surface, y.
     pub y: Option<f64>,
+    /// Where the ray met the surface, z.
     pub z: Option<f64>,
+    /// How far the point was snapped onto the silhouette, screen px.
     pub snap_px: Option<f64>,
+    /// The fate's name ([`ProjectionFate::name`]).
     pub fate: String,
 }
 
@@ -54,14 +72,17 @@ impl From<&ProjectedFixation> for ProjectedRow {
 }
 
 impl ProjectedRow {
+    /// The fate, when its name is one meshgaze writes.
     pub fn fate(&self) -> Option<ProjectionFate> {
         ProjectionFate::parse(&self.fate)
     }
 
+    /// The surface point, when the fixation landed on the mesh.
     pub fn point(&self) -> Option<DVec3> {
         Some(DVec3::new(self.x?, self.y?, self.z?))
     }
 
+    /// The camera's phase, when written.
     pub fn phase(&self) -> Option<Phase> {
         match self.phase.as_deref() {
             Some("hold") => Some(Phase::Hold),
@@ -72,6 +93,7 @@ impl ProjectedRow {
     }
 }
 
+/// Writes projected.csv (the header alone when there are no rows).
 pub fn write_projected_csv<W: Write>(out: W, rows: &[ProjectedRow]) -> Result<(), String> {
     let mut w = csv::Writer::from_writer(out);
     for r in rows {

@@ -15,13 +15,16 @@ use crate::protocol::{Protocol, ViewpointGenerator};
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Phase {
+    /// The camera holds on a viewpoint.
     Hold,
+    /// The camera moves between two viewpoints.
     Move,
     /// After the end of the video.
     Ended,
 }
 
 impl Phase {
+    /// `hold`, `move` or `ended`, as the timeline and projected.csv write it.
     pub fn name(self) -> &'static str {
         match self {
             Phase::Hold => "hold",
@@ -31,9 +34,12 @@ impl Phase {
     }
 }
 
+/// The camera at one instant of the video.
 #[derive(Debug, Clone, Copy)]
 pub struct CameraState {
+    /// Stimulus time, s.
     pub time_s: f64,
+    /// Holding or moving.
     pub phase: Phase,
     /// The viewpoint held, or the one the move starts from (0-based, tour order).
     pub viewpoint: usize,
@@ -41,17 +47,22 @@ pub struct CameraState {
     pub next_viewpoint: usize,
     /// Eased progress of a move in [0, 1] (0 during a hold).
     pub progress: f64,
+    /// The eye (camera centre), world coordinates.
     pub eye: DVec3,
+    /// The camera's rotation, world from camera.
     pub orientation: DQuat,
     /// World → camera.
     pub view: DMat4,
     /// Camera → clip (OpenGL convention, right-handed, depth −1..1).
     pub projection: DMat4,
+    /// The picture's width, px.
     pub width_px: u32,
+    /// The picture's height, px.
     pub height_px: u32,
 }
 
 impl CameraState {
+    /// World → clip.
     pub fn view_projection(&self) -> DMat4 {
         self.projection * self.view
     }
@@ -86,11 +97,17 @@ impl CameraState {
 /// Everything needed to place the camera at any time for one mesh and protocol.
 #[derive(Debug, Clone, Serialize)]
 pub struct CameraPlan {
+    /// The point the camera looks at: the centre of the mesh's bounding box.
     pub center: [f64; 3],
+    /// The mesh's bounding-sphere radius around `center`.
     pub radius: f64,
+    /// The eye's distance from `center`, set so the sphere fills the protocol's `fill`.
     pub distance: f64,
+    /// Near clipping plane distance.
     pub near: f64,
+    /// Far clipping plane distance.
     pub far: f64,
+    /// Vertical field of view, degrees.
     pub fov_y_deg: f64,
     /// Viewpoint directions (centre → camera) in tour order.
     pub directions: Vec<[f64; 3]>,
@@ -162,6 +179,7 @@ fn perspective(fov_y: f64, aspect: f64, near: f64, far: f64) -> DMat4 {
 }
 
 impl CameraPlan {
+    /// The plan of `mesh` under `protocol`; an error for a mesh without triangles.
     pub fn new(mesh: &Mesh, protocol: &Protocol) -> Result<CameraPlan, String> {
         let (lo, hi) = mesh.referenced_bounds().ok_or("the mesh has no triangle")?;
         let center = (lo + hi) * 0.5;
@@ -234,10 +252,12 @@ impl CameraPlan {
         })
     }
 
+    /// The video's length, s.
     pub fn duration_s(&self) -> f64 {
         self.duration_s
     }
 
+    /// How many hold viewpoints the tour has.
     pub fn viewpoints(&self) -> usize {
         self.keyframes.len()
     }
