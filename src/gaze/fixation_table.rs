@@ -31,19 +31,31 @@ pub const HEADER: &[&str] = WRITTEN.split_at(13).0;
 /// One row of `fixations.csv`, as read back.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct FixationRow {
+    /// The subject's id.
     pub subject: String,
+    /// The stimulus it was made on (empty: outside every stimulus).
     pub stimulus: String,
+    /// `left`, `right`, `average` or `binocular`.
     pub eye: String,
+    /// The trial it belongs to.
     pub trial: u32,
+    /// Start, tracker clock in µs.
     pub start_us: i64,
+    /// End, tracker clock in µs.
     pub end_us: i64,
+    /// Duration, ms.
     pub duration_ms: f64,
+    /// Position on the screen, px, horizontal.
     pub x_px: f64,
+    /// Position on the screen, px, vertical.
     pub y_px: f64,
+    /// Dispersion of its samples (or the export's), px.
     pub dispersion_px: Option<f64>,
+    /// Pupil size (its samples' mean, or the export's), in the file's unit.
     pub pupil: Option<f64>,
     /// Start of the fixation after its stimulus onset message, µs.
     pub onset_offset_us: Option<i64>,
+    /// The filter's fate (`kept`, `dropped-first`, ...).
     pub fate: String,
     /// Why the fate is `invalid` (empty otherwise).
     #[serde(default)]
@@ -90,6 +102,7 @@ pub fn read_fixations_csv(path: &Path) -> Result<Vec<FixationRow>, String> {
     parse_fixations_csv(&bytes, &path.display().to_string())
 }
 
+/// fixations.csv from bytes; `name` labels the errors (name:line:column).
 pub fn parse_fixations_csv(bytes: &[u8], name: &str) -> Result<Vec<FixationRow>, String> {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     let mut r = csv::ReaderBuilder::new().from_reader(bytes);

@@ -14,7 +14,9 @@ use super::stimulus_messages::{
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum EyePolicy {
+    /// The left eye.
     Left,
+    /// The right eye.
     Right,
     /// Mean of the valid eyes (one eye when the other is lost).
     Average,
@@ -22,6 +24,7 @@ pub enum EyePolicy {
     Best,
 }
 
+/// Where fixations come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "kebab-case")]
@@ -34,6 +37,7 @@ pub enum Detector {
     IVt,
 }
 
+/// The sample detectors' thresholds.
 #[derive(Debug, Clone, Serialize)]
 pub struct DetectorParams {
     /// I-DT: largest (max x − min x) + (max y − min y) in pixels (SMI default 100 px).
@@ -57,18 +61,24 @@ impl Default for DetectorParams {
     }
 }
 
+/// What the protocol's filter did with a fixation.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, PartialOrd, Ord)]
 #[serde(rename_all = "kebab-case")]
 pub enum Fate {
+    /// Kept: it counts in the ground truth.
     Kept,
+    /// Among the first `drop_first` of the subject's viewing.
     DroppedFirst,
+    /// Among the last `drop_last`.
     DroppedLast,
+    /// Not among the `keep_longest` longest of the rest.
     NotLongest,
     /// No position, or a position off the calibrated screen.
     Invalid,
 }
 
 impl Fate {
+    /// The name fixations.csv writes (`kept`, `dropped-first`, ...).
     pub fn name(self) -> &'static str {
         match self {
             Fate::Kept => "kept",
@@ -80,21 +90,32 @@ impl Fate {
     }
 }
 
+/// One fixation of one subject on one stimulus, with its fate.
 #[derive(Debug, Clone, Serialize)]
 pub struct Fixation {
+    /// The subject's id.
     pub subject: String,
+    /// The stimulus it was made on (empty: outside every stimulus).
     pub stimulus: String,
-    /// Which eye(s): `left`, `right` or `average`.
+    /// Which eye(s): `left`, `right`, `average` or `binocular`.
     pub eye: &'static str,
+    /// The trial it belongs to.
     pub trial: u32,
+    /// Start, tracker clock in µs.
     pub start_us: i64,
+    /// End, tracker clock in µs.
     pub end_us: i64,
+    /// Duration, ms.
     pub duration_ms: f64,
+    /// Position on the screen, px, horizontal.
     pub x_px: f64,
+    /// Position on the screen, px, vertical.
     pub y_px: f64,
     /// (max x − min x) + (max y − min y) of its samples, or the export's X + Y dispersion.
     pub dispersion_px: Option<f64>,
+    /// Pupil size (its samples' mean, or the export's), in the file's unit.
     pub pupil: Option<f64>,
+    /// What the protocol's filter did with it.
     pub fate: Fate,
     /// Microsecond offset of the fixation's start from its stimulus onset message.
     pub onset_offset_us: Option<i64>,

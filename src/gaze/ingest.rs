@@ -24,8 +24,11 @@ use crate::provenance::{InputFile, Provenance};
 /// The protocol's fixation filter (paper §4: drop the first and last two, keep the 15 longest).
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct FilterRules {
+    /// Fixations dropped at the start of each viewing.
     pub drop_first: usize,
+    /// Fixations dropped at its end.
     pub drop_last: usize,
+    /// Of the rest, the longest kept.
     pub keep_longest: usize,
 }
 
@@ -36,13 +39,17 @@ pub struct IngestParams {
     pub format: Option<GazeFormat>,
     /// None: the exporter's events when the file has events and no samples, else I-DT.
     pub detector: Option<Detector>,
+    /// Which eye's gaze fixations are computed from.
     pub eye: EyePolicy,
     /// Which samples count as tracked (the validity flag, the point of regard).
     pub validity: ValidityRule,
     /// Overrides the subject the file names.
     pub subject: Option<String>,
+    /// The sample detectors' thresholds.
     pub detector_params: DetectorParams,
+    /// The protocol's fixation filter.
     pub filter: FilterRules,
+    /// Which messages start and end a stimulus, and its longest duration.
     pub segmentation: Segmentation,
     /// The screen in pixels for files whose positions are fractions of it (Gazepoint, Pupil
     /// Labs surfaces) and that do not say its size; None: such a file is refused.
@@ -100,14 +107,20 @@ impl IngestParams {
 
 /// One file, ingested.
 pub struct IngestedFile {
+    /// The file.
     pub path: PathBuf,
+    /// What it holds, as read.
     pub recording: Recording,
     /// The file's subject (format B files naming several participants give each fixation
     /// its own).
     pub subject: String,
+    /// Where its fixations came from.
     pub detector: Detector,
+    /// Its fixations with their fates.
     pub fixations: Vec<Fixation>,
+    /// Data quality per stimulus.
     pub quality: Vec<QualityRow>,
+    /// Its messages, each with its kind.
     pub messages: Vec<ClassifiedMessage>,
     /// Things a user should know that do not stop the file (printed by the CLI).
     pub warnings: Vec<String>,
@@ -715,9 +728,13 @@ pub fn write_ingest_json(
 /// The three tables `meshgaze ingest` writes, as CSV text: what the files hold and what the
 /// Python package turns into DataFrames, so both read the same bytes.
 pub struct IngestTables {
+    /// fixations.csv.
     pub fixations: String,
+    /// messages.csv.
     pub messages: String,
+    /// quality.csv.
     pub quality: String,
+    /// Rows of fixations.csv.
     pub fixation_count: usize,
 }
 

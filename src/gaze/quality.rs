@@ -8,19 +8,29 @@ use serde::Serialize;
 use super::fixations::{resolve_policy, sample_interval_us, EyePolicy, Fate, Fixation};
 use super::recording::Recording;
 
+/// Data quality of one subject's viewing of one stimulus (a row of quality.csv).
 #[derive(Debug, Clone, Serialize)]
 pub struct QualityRow {
+    /// The subject's id.
     pub subject: String,
+    /// The stimulus (empty: time outside every stimulus).
     pub stimulus: String,
+    /// Samples in the viewing.
     pub samples: usize,
+    /// Samples whose chosen eye was not tracked.
     pub lost_samples: usize,
+    /// Time lost, ms.
     pub lost_ms: f64,
+    /// `lost_samples / samples`.
     pub loss_ratio: f64,
+    /// The sample rate the file states.
     pub declared_rate_hz: Option<f64>,
+    /// The sample rate measured from the time stamps.
     pub measured_rate_hz: Option<f64>,
     /// RMS distance between successive samples inside kept fixations (px); None without
     /// samples.
     pub precision_rms_px: Option<f64>,
+    /// Fixations by the filter's fate.
     pub fixations_by_fate: BTreeMap<&'static str, usize>,
 }
 
