@@ -13,11 +13,12 @@ use super::recording::Recording;
 pub struct QualityRow {
     /// The subject's id.
     pub subject: String,
-    /// The stimulus (empty: time outside every stimulus).
+    /// The stimulus (`recording` for time outside every stimulus).
     pub stimulus: String,
     /// Samples in the viewing.
     pub samples: usize,
-    /// Samples whose chosen eye was not tracked.
+    /// Samples without a valid eye the policy uses (the chosen eye; either eye for `average`
+    /// and `best`).
     pub lost_samples: usize,
     /// Time lost, ms.
     pub lost_ms: f64,
