@@ -18,38 +18,57 @@ pub enum DatasetError {
     /// `meshes/` or `truth/` could not be listed.
     #[error("cannot read {}: {cause}", folder.display())]
     Unreadable {
+        /// The folder.
         folder: PathBuf,
+        /// The I/O error.
         cause: std::io::Error,
     },
     /// A mesh has no truth file of its name.
     #[error("{}: no truth file named {name}_* or {name}.* in {}", mesh.display(), truth_dir.display())]
     NoTruth {
+        /// The mesh file.
         mesh: PathBuf,
+        /// Its stem, the name a truth file must start with.
         name: String,
+        /// The truth folder.
         truth_dir: PathBuf,
     },
     /// A mesh's name matches more than one truth file.
     #[error("{}: several truth files match {name}: {matches:?}", mesh.display())]
     SeveralTruths {
+        /// The mesh file.
         mesh: PathBuf,
+        /// Its stem.
         name: String,
+        /// The truth files that match it.
         matches: Vec<PathBuf>,
     },
     /// `meshes/` holds no mesh file.
     #[error("{}: no meshes found", folder.display())]
-    NoMeshes { folder: PathBuf },
+    NoMeshes {
+        /// The folder.
+        folder: PathBuf,
+    },
 }
 
 /// One mesh's scores, as score.json lists them.
 #[derive(Serialize)]
 pub struct MeshEntry {
+    /// The mesh's name (its file stem).
     pub mesh: String,
+    /// What the mesh reader found.
     pub load: LoadReport,
+    /// `vertex_map` or `fixations`.
     pub truth_kind: &'static str,
+    /// Positive vertices of the truth.
     pub positives: usize,
+    /// Fixations of a fixation set (0 for a map).
     pub fixations: usize,
+    /// Subject splits behind the human ceiling.
     pub human_splits: usize,
+    /// Seconds each computed method took.
     pub seconds_per_method: Vec<(String, f64)>,
+    /// One summary per map.
     pub summaries: Vec<MethodSummary>,
     /// Every chance map's AUC-Judd per blur ([`crate::scoring::MeshScore::chance_auc_judd`]).
     #[serde(skip)]

@@ -100,21 +100,36 @@ impl StimulusLoadError {
 
 /// A stimulus whose files were checked against its manifest.
 pub struct LoadedStimulus {
+    /// manifest.json.
     pub manifest_path: PathBuf,
+    /// SHA-256 of manifest.json, for the provenance of what is computed from it.
     pub manifest_sha256: String,
+    /// The mesh file (the manifest's, or the one given instead).
     pub mesh_path: PathBuf,
+    /// The mesh, read.
     pub mesh: Mesh,
+    /// What the mesh reader found.
     pub mesh_report: LoadReport,
+    /// SHA-256 of the mesh file, equal to the manifest's.
     pub mesh_sha256: String,
+    /// The protocol the stimulus was rendered under.
     pub protocol: Protocol,
     /// The protocol's TOML text as recorded in the manifest.
     pub protocol_toml: String,
+    /// SHA-256 of that text, equal to the manifest's.
     pub protocol_sha256: String,
+    /// stimulus.mp4.
     pub video_path: PathBuf,
+    /// SHA-256 of the video, equal to the manifest's.
     pub video_sha256: String,
+    /// The camera plan, recomputed from the mesh and protocol and checked against every
+    /// timeline row.
     pub plan: CameraPlan,
+    /// The video's frame rate.
     pub fps: u32,
+    /// The video's width, px.
     pub video_width: u32,
+    /// The video's height, px.
     pub video_height: u32,
 }
 
