@@ -36,6 +36,7 @@ pub enum MessageKind {
 }
 
 impl MessageKind {
+    /// The name messages.csv writes.
     pub fn name(self) -> &'static str {
         match self {
             MessageKind::Stimulus => "stimulus",
@@ -52,7 +53,9 @@ impl MessageKind {
 /// `end`, when given, marks where a stimulus ends.
 #[derive(Debug, Clone)]
 pub struct StimulusPattern {
+    /// Messages that start a stimulus; the capture group is its name.
     pub start: Regex,
+    /// Messages that end the running stimulus.
     pub end: Option<Regex>,
 }
 
@@ -190,8 +193,11 @@ fn is_truncated(t: &str) -> bool {
 /// One stimulus presentation within a recording.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct StimulusSegment {
+    /// The trial it is in.
     pub trial: u32,
+    /// The stimulus's name, from its onset message.
     pub name: String,
+    /// Onset, tracker clock in µs.
     pub onset_us: i64,
     /// Exclusive end: the next onset, an end message or onset + the longest duration;
     /// None: open to the end of the trial.
@@ -203,11 +209,15 @@ pub struct StimulusSegment {
 /// A message with its kind, as the messages table lists it.
 #[derive(Debug, Clone, Serialize)]
 pub struct ClassifiedMessage {
+    /// Tracker clock in µs.
     pub time_us: i64,
+    /// The trial it is in.
     pub trial: u32,
+    /// What the message is.
     pub kind: MessageKind,
     /// The stimulus name, for onsets.
     pub stimulus: Option<String>,
+    /// The message as logged.
     pub text: String,
 }
 
@@ -293,8 +303,11 @@ fn finish_open(s: &mut StimulusSegment, seg: &Segmentation) {
 /// before any onset of its trial.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Placement<'a> {
+    /// Inside this segment.
     Inside(&'a StimulusSegment),
+    /// After this segment ended, before the next onset.
     AfterEnd(&'a StimulusSegment),
+    /// Before the first onset of its trial.
     BeforeFirstOnset,
 }
 
