@@ -29,46 +29,65 @@ use crate::provenance::sha256_hex;
 /// points by `meshgaze train --dataset ../shared/data/fixations-vr -o models/gaze-vr.json`.
 pub const BUILTIN_MODEL: &str = include_str!("../../models/gaze-vr.json");
 
+/// The `format` field of a model file.
 pub const MODEL_FORMAT: &str = "meshgaze-gaze-model";
 
 /// One training object: its features and per-point flags.
 #[derive(Debug, Clone)]
 pub struct TrainingObject {
+    /// The object's name (its file stem).
     pub name: String,
     /// The dataset (or study) it came from, by folder name: training balances datasets.
     pub dataset: String,
+    /// SHA-256 of its gaze-point file.
     pub sha256: String,
+    /// One feature row per point.
     pub features: FeatureMatrix,
+    /// Whether each point is among the most looked-at (the file's flag column).
     pub labels: Vec<bool>,
 }
 
 /// What a model was trained on and how (all of it fixes the bytes of the model).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TrainingRecord {
+    /// Every training object.
     pub objects: Vec<ObjectRecord>,
     /// Each dataset's share of the training weight: a lab's 2 meshes weigh as much as
     /// another dataset's 59 unless a weight says otherwise.
     pub datasets: Vec<DatasetRecord>,
+    /// Points drawn from each object.
     pub rows_per_object: usize,
+    /// The seed of the draws.
     pub seed: u64,
+    /// The protocol whose views the view features were computed with.
     pub protocol: String,
 }
 
+/// One training object as the model file records it.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ObjectRecord {
+    /// The object's name.
     pub name: String,
+    /// The dataset it came from.
     pub dataset: String,
+    /// SHA-256 of its gaze-point file.
     pub sha256: String,
+    /// Its points.
     pub points: usize,
+    /// Its flagged (most looked-at) points.
     pub positives: usize,
+    /// Points drawn for training.
     pub rows_used: usize,
 }
 
 /// One dataset of a model's training data and the weight it carried.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct DatasetRecord {
+    /// The dataset's folder name.
     pub name: String,
+    /// Its objects.
     pub objects: usize,
+    /// Its training rows.
     pub rows: usize,
     /// The weight asked for (`train --weight NAME=W`, 1 by default).
     pub weight: f64,
@@ -77,22 +96,34 @@ pub struct DatasetRecord {
     pub row_weight: f64,
 }
 
+/// A learned gaze predictor: boosted trees over per-point features, with the record of what
+/// it was trained on. Trained on one experiment's observers, it predicts their habits; it is
+/// not a general model of where people look.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct GazeModel {
+    /// [`MODEL_FORMAT`].
     pub format: String,
+    /// The file format's version.
     pub version: u32,
+    /// The meshgaze version that trained it.
     pub tool_version: String,
+    /// The feature names, in column order.
     pub features: Vec<String>,
+    /// What it was trained on and how.
     pub training: TrainingRecord,
+    /// The trees.
     pub trees: BoostedTrees,
 }
 
+/// How a model is trained.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct TrainOptions {
+    /// The boosting parameters.
     pub params: BoostParams,
     /// Points drawn from each object (all of them when it has fewer), so every object
     /// weighs the same whatever its size.
     pub rows_per_object: usize,
+    /// Seed of the row draws.
     pub seed: u64,
     /// Weight of a dataset by name (1 when absent): its rows together weigh this much
     /// relative to every other dataset's, whatever the number of objects in each.
@@ -357,6 +388,7 @@ impl GazeModel {
         GazeModel::from_json(&text, &path.display().to_string())
     }
 
+    /// The model shipped with meshgaze (models/gaze-vr.json): one VR experiment's.
     pub fn builtin() -> GazeModel {
         GazeModel::from_json(BUILTIN_MODEL, "built-in model").expect("the built-in model loads")
     }
@@ -372,6 +404,7 @@ impl GazeModel {
         Ok(self.predict_features(&features))
     }
 
+    /// [`GazeModel::predict`] from features already computed.
     pub fn predict_features(&self, features: &FeatureMatrix) -> Vec<f64> {
         self.trees
             .predict(&features.columns)
