@@ -31,13 +31,21 @@ pub enum ProjectError {
     /// A file could not be read, created or written.
     #[error("{action} {}: {cause}", path.display())]
     Io {
+        /// `cannot read`, `cannot create`, `cannot write`.
         action: &'static str,
+        /// The file or folder.
         path: PathBuf,
+        /// The I/O error.
         cause: std::io::Error,
     },
     /// A CSV output could not be written.
     #[error("cannot write {}: {cause}", path.display())]
-    Csv { path: PathBuf, cause: csv::Error },
+    Csv {
+        /// The file.
+        path: PathBuf,
+        /// The CSV writer's error.
+        cause: csv::Error,
+    },
 }
 
 type Result<T> = std::result::Result<T, ProjectError>;
@@ -161,9 +169,11 @@ pub struct ProjectOptions {
     /// The stimulus name in the fixation files (None: the one named like the mesh, or the
     /// only one with an onset).
     pub stimulus_name: Option<String>,
+    /// The tracker time of the video's first frame, for fixations without an onset message.
     pub onset_us: Option<i64>,
     /// The tracker's screen in pixels (None: the protocol's display).
     pub screen: Option<(f64, f64)>,
+    /// Overrides the protocol's rule for fixations that overlap a move.
     pub during_move: Option<DuringMove>,
     /// Snap radius in degrees.
     pub snap_deg: Option<f64>,
@@ -171,30 +181,46 @@ pub struct ProjectOptions {
     pub cone_deg: Option<f64>,
     /// targets.csv of simulated observers, for the round-trip check.
     pub targets: Option<PathBuf>,
+    /// Checks the projector against the renderer's triangle-id images of the hold frames.
     pub self_check: bool,
 }
 
 /// project.json.
 #[derive(Serialize)]
 pub struct ProjectSidecar {
+    /// Tool version and inputs with their hashes.
     pub provenance: Provenance,
+    /// SHA-256 of the stimulus manifest.
     pub manifest_sha256: String,
+    /// SHA-256 of the mesh.
     pub mesh_sha256: String,
+    /// The stimulus whose fixations were projected.
     pub stimulus_name: String,
+    /// Tracker screen to video pixels.
     pub mapping: ScreenMapping,
+    /// How fixations were projected.
     pub parameters: ProjectionParams,
+    /// Screen pixels per degree of visual angle (degrees to pixels for snap and cone).
     pub pixels_per_degree: f64,
+    /// Fixation rows of other stimuli, left out.
     pub rows_of_other_stimuli: usize,
+    /// Fates per subject.
     pub fates: BTreeMap<String, BTreeMap<&'static str, usize>>,
+    /// Fates over every subject.
     pub totals: BTreeMap<&'static str, usize>,
+    /// The projector-against-renderer check, when asked for.
     pub self_check: Option<SelfCheck>,
+    /// How far projected fixations land from simulated observers' true targets.
     pub round_trip: Option<RoundTrip>,
 }
 
 /// What a projection produced.
 pub struct ProjectionRun {
+    /// Every fixation with its fate.
     pub projected: Vec<ProjectedFixation>,
+    /// projected.csv's rows.
     pub rows: Vec<ProjectedRow>,
+    /// project.json.
     pub sidecar: ProjectSidecar,
 }
 

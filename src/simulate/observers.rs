@@ -13,26 +13,39 @@ use crate::protocol::{Display, Protocol};
 use crate::stimulus::camera::{CameraPlan, CameraState, Phase};
 
 use super::TrueFixation;
+
+/// The virtual observers' behaviour (defaults: an SMI RED250 at 250 Hz, 8 subjects).
 #[derive(Debug, Clone, Serialize)]
 pub struct ObserverParams {
+    /// How many subjects.
     pub subjects: usize,
+    /// Seed of every random step; each subject draws from its own stream.
     pub seed: u64,
+    /// The tracker's sample rate.
     pub sample_rate_hz: f64,
     /// RMS radial accuracy error per fixation, degrees.
     pub accuracy_deg: f64,
     /// RMS per-sample jitter per axis, degrees.
     pub precision_deg: f64,
+    /// Median fixation duration (log-normal), ms.
     pub fixation_median_ms: f64,
+    /// σ of the log of fixation durations.
     pub fixation_sigma_log: f64,
+    /// Shortest fixation, ms.
     pub fixation_min_ms: f64,
+    /// Longest fixation, ms.
     pub fixation_max_ms: f64,
+    /// A new target is at least this far from the current gaze, degrees.
     pub min_saccade_deg: f64,
+    /// Probability of a blink after a fixation.
     pub blink_probability: f64,
     /// Target probability ∝ saliency^sharpness (saliency min–max normalized).
     pub sharpness: f64,
     /// Cosine of the largest angle between a target's normal and the direction to the eye.
     pub min_facing_cos: f64,
+    /// Seconds on a central fixation cross before the stimulus.
     pub lead_in_s: f64,
+    /// Seconds on a blank screen after it.
     pub tail_s: f64,
 }
 
@@ -70,12 +83,19 @@ pub enum TargetModel {
 /// One virtual subject's recording.
 #[derive(Debug, Clone)]
 pub struct VirtualSubject {
+    /// `s01`, `s02`, ...
     pub id: String,
+    /// The subject's distance from the screen, mm (uniform in the protocol's range).
     pub head_distance_mm: f64,
+    /// The recording's header.
     pub header: Header,
+    /// Every sample.
     pub samples: Vec<Sample>,
+    /// The stimulus onset and end messages.
     pub messages: Vec<Message>,
+    /// The fixations, saccades and blinks, as an event export lists them.
     pub events: Vec<Event>,
+    /// Every fixation with its true target.
     pub fixations: Vec<TrueFixation>,
 }
 
