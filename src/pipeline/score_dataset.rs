@@ -24,7 +24,9 @@ pub struct ScoreRequest<'a> {
     pub pairs: &'a [(String, PathBuf, PathBuf)],
     /// Map files to score beside the methods (named by their file stem; one mesh only).
     pub saliency_files: &'a [PathBuf],
+    /// Methods computed on each mesh and scored.
     pub methods: &'a [Method],
+    /// How each mesh is scored.
     pub params: &'a ScoreParams,
     /// For per-vertex truth maps without a 0/1 column: the top fraction taken as fixated.
     pub top_fraction: f64,
@@ -36,19 +38,29 @@ pub struct ScoreRequest<'a> {
 
 /// One mesh, scored: what the caller may print.
 pub struct ScoredMesh {
+    /// The mesh's name.
     pub name: String,
+    /// Its vertices.
     pub vertices: usize,
+    /// Positive vertices of its truth.
     pub score_positives: usize,
+    /// Fixations of its truth (0 for a map).
     pub score_fixations: usize,
+    /// Subject splits behind its human ceiling.
     pub human_splits: usize,
+    /// The chart files written for it.
     pub plots: Vec<String>,
 }
 
 /// What was written.
 pub struct ScoreOutputs {
+    /// PREFIX.csv: every score row of every mesh.
     pub csv: PathBuf,
+    /// PREFIX.json: provenance, parameters, each mesh's entry and the means.
     pub json: PathBuf,
+    /// Each mesh's entry.
     pub entries: Vec<MeshEntry>,
+    /// Each method's summary averaged over the meshes.
     pub mean: Vec<MethodSummary>,
 }
 

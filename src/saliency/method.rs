@@ -19,6 +19,7 @@ use crate::mesh::Mesh;
 use crate::progress::Progress;
 use crate::protocol::Protocol;
 
+/// A saliency method: the paper's seven, two view priors, and the learned gaze model.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
@@ -88,6 +89,7 @@ impl Method {
             })
     }
 
+    /// The short name (`sms`, `mc`, ...) that files, tables and the command line use.
     pub fn name(self) -> &'static str {
         match self {
             Method::Sms => "sms",
@@ -106,8 +108,11 @@ impl Method {
 
 /// A per-vertex map in [0, 1] with what the method reports about itself.
 pub struct MethodOutput {
+    /// One value per input vertex, in input order.
     pub values: Vec<f64>,
+    /// The method's parameters and what it reports about its run, for the sidecar.
     pub report: serde_json::Value,
+    /// Wall-clock seconds.
     pub seconds: f64,
 }
 
@@ -115,9 +120,11 @@ pub struct MethodOutput {
 /// gaze model), and the parameters of the global-rarity competitors.
 #[derive(Debug, Clone)]
 pub struct Viewing {
+    /// The protocol: hold views for the priors and the gaze model's view features.
     pub protocol: Protocol,
     /// None: the built-in model.
     pub model: Option<GazeModel>,
+    /// Parameters of SRI, GR and MR.
     pub rarity: RarityParams,
 }
 
@@ -125,8 +132,11 @@ pub struct Viewing {
 #[derive(Debug, Clone, Default, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct RarityParams {
+    /// SRI (Leifman et al. 2012).
     pub sri: SriParams,
+    /// GR (Wu et al. 2013).
     pub gr: GrParams,
+    /// MR (Tao et al. 2015).
     pub mr: MrParams,
 }
 

@@ -43,27 +43,38 @@ fn default_methods() -> Vec<Method> {
 /// A mesh of the study: its name (the file stem, which a video file's stem must equal).
 #[derive(Debug, Clone, PartialEq)]
 pub struct StudyMesh {
+    /// The file stem.
     pub name: String,
+    /// The mesh file.
     pub path: PathBuf,
 }
 
 /// A study with every path resolved.
 #[derive(Debug, Clone)]
 pub struct Study {
+    /// study.toml.
     pub file: PathBuf,
+    /// The protocol (the file's, or the built-in one).
     pub protocol: Protocol,
+    /// The protocol's TOML text.
     pub protocol_text: String,
+    /// How the protocol is named in provenance.
     pub protocol_name: String,
     /// Sorted by name.
     pub meshes: Vec<StudyMesh>,
     /// Sorted.
     pub recordings: Vec<PathBuf>,
+    /// The saliency methods computed and scored on every mesh.
     pub methods: Vec<Method>,
     /// The `set` lines as written, and the parameters they give.
     pub settings: Vec<String>,
+    /// The rarity parameters those settings give.
     pub rarity: RarityParams,
+    /// The output folder.
     pub output: PathBuf,
+    /// Overrides the protocol's stimulus-start message pattern.
     pub stimulus_pattern: Option<String>,
+    /// Overrides the protocol's stimulus-end message pattern.
     pub stimulus_end_pattern: Option<String>,
     /// Patterns that matched no file, for the log.
     pub unmatched: Vec<String>,

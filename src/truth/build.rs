@@ -35,8 +35,11 @@ pub enum TruthBuildError {
     /// A file could not be read, created or written.
     #[error("{action} {}: {cause}", path.display())]
     Io {
+        /// `cannot read`, `cannot create`, `cannot write`.
         action: &'static str,
+        /// The file or folder.
         path: PathBuf,
+        /// The I/O error.
         cause: std::io::Error,
     },
 }
@@ -69,6 +72,7 @@ pub struct TruthParams {
     pub blur_max: f64,
     /// Step of the human-ceiling sweep.
     pub blur_step: f64,
+    /// How the density and the human maps are blurred.
     pub kernel: BlurKernel,
 }
 
@@ -109,15 +113,19 @@ pub struct TruthSidecar {
 
 /// What `build_truth` computed.
 pub struct TruthResult {
+    /// Every subject's projected fixations, whatever their fate (truth.csv).
     pub rows: Vec<ProjectedRow>,
+    /// The fixation set.
     pub truth: GroundTruth,
     /// Fixations per vertex.
     pub counts: Vec<f64>,
+    /// The blurred fixation density, one value per vertex (density.csv).
     pub density: Vec<f64>,
     /// The cone density, when the projections carried one (cone.csv beside projected.csv).
     pub cone: Option<Vec<f64>>,
     /// (blur, metric, value) of the split-half human ceiling.
     pub human: Vec<(f64, &'static str, f64)>,
+    /// truth.json.
     pub sidecar: TruthSidecar,
 }
 
@@ -125,9 +133,11 @@ pub struct TruthResult {
 pub struct Projections {
     /// Sorted by subject, then fixation.
     pub rows: Vec<ProjectedRow>,
+    /// The cone density summed over the files that carry a cone.csv (None when none does).
     pub cone: Option<Vec<f64>>,
     /// The manifest, each projected.csv and each cone.csv, hashed.
     pub inputs: Vec<InputFile>,
+    /// Things a user should know (printed by the CLI).
     pub warnings: Vec<String>,
 }
 
