@@ -11,8 +11,11 @@ use serde::{Deserialize, Serialize};
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BoostParams {
+    /// Trees.
     pub rounds: usize,
+    /// Shrinkage of each tree's values.
     pub learning_rate: f64,
+    /// Deepest split level.
     pub max_depth: usize,
     /// Smallest summed hessian (≈ weighted rows × p(1−p)) a child may have.
     pub min_child_hessian: f64,
@@ -52,6 +55,7 @@ pub struct Node {
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Tree {
+    /// Its nodes; the root is the first.
     pub nodes: Vec<Node>,
 }
 
@@ -71,8 +75,11 @@ impl Tree {
 /// A trained ensemble: log-odds = `base` + Σ trees.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BoostedTrees {
+    /// How it was trained.
     pub params: BoostParams,
+    /// The log-odds before any tree (the weighted base rate).
     pub base: f64,
+    /// The trees, in training order.
     pub trees: Vec<Tree>,
     /// Total split gain per feature, summed over all trees (what the model leans on).
     pub gain: Vec<f64>,

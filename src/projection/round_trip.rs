@@ -8,26 +8,35 @@ use crate::stimulus::camera::{CameraPlan, Phase};
 /// A fixation as the virtual observer made it; one row of targets.csv.
 #[derive(Debug, Clone, Serialize, serde::Deserialize)]
 pub struct TrueFixation {
+    /// The subject's id.
     pub subject: String,
     /// Order within the subject's recording (lead-in and tail included).
     pub index: usize,
+    /// Start, tracker clock in µs.
     pub start_us: i64,
+    /// End, tracker clock in µs.
     pub end_us: i64,
     /// Start after the stimulus onset, ms (negative in the lead-in).
     pub start_ms: f64,
+    /// Duration, ms.
     pub duration_ms: f64,
     /// `lead-in`, `hold`, `move` or `tail`.
     pub phase: String,
+    /// The hold viewpoint (0-based) when it started in a hold.
     pub viewpoint: Option<usize>,
     /// The target vertex; None for the cross, the tail, or when nothing was visible.
     pub vertex: Option<usize>,
-    /// The target's screen position and where the eye actually pointed (px).
+    /// The target's screen position, px, horizontal.
     pub target_x: f64,
+    /// The target's screen position, px, vertical.
     pub target_y: f64,
+    /// Where the eye actually pointed (the target plus the accuracy error), px, horizontal.
     pub gaze_x: f64,
+    /// Where the eye actually pointed, px, vertical.
     pub gaze_y: f64,
 }
 
+/// targets.csv from a file.
 pub fn read_targets_csv(path: &std::path::Path) -> Result<Vec<TrueFixation>, String> {
     let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
     parse_targets_csv(&bytes, &path.display().to_string())
@@ -62,6 +71,7 @@ pub struct RoundTrip {
     pub rate: f64,
     /// Median and 95th percentile of the error in degrees of visual angle.
     pub median_error_deg: f64,
+    /// 95th percentile of the error, degrees.
     pub p95_error_deg: f64,
     /// (subject, fixation, fate, error in degrees or NaN) of every matched fixation not
     /// within 1°, for inspection.

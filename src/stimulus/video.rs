@@ -15,16 +15,23 @@ use super::h264_repeat::RepeatWriter;
 /// The encoder's settings for one stimulus.
 #[derive(Debug, Clone, Copy)]
 pub struct VideoSettings {
+    /// Width, px.
     pub width: usize,
+    /// Height, px.
     pub height: usize,
+    /// Frames per second.
     pub fps: u32,
+    /// Target bit rate, bits per second.
     pub bitrate_bps: u32,
+    /// Frames between keyframes.
     pub keyframe_interval: u32,
 }
 
 /// One frame's H.264 access unit (Annex B) and whether it is a keyframe.
 pub struct EncodedFrame {
+    /// The access unit, Annex B byte stream.
     pub annexb: Vec<u8>,
+    /// Whether it is a keyframe (IDR).
     pub key: bool,
 }
 
@@ -36,6 +43,7 @@ pub struct Mp4File {
 }
 
 impl Mp4File {
+    /// Creates the file at `path` for a video of `settings`.
     pub fn create(path: &Path, settings: &VideoSettings) -> Result<Mp4File, String> {
         let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
         let muxer = muxide::api::MuxerBuilder::new(BufWriter::new(file))
@@ -76,7 +84,9 @@ impl Mp4File {
 /// Where a segment's encoded frames go: straight into the file (the first segment), or kept
 /// until the segments before it are written.
 pub enum FrameSink {
+    /// Written to the file as encoded.
     File(Box<Mp4File>),
+    /// Kept in memory until the segments before it are written.
     Memory(Vec<EncodedFrame>),
 }
 
@@ -105,12 +115,17 @@ pub struct SegmentEncoder {
 pub struct Checker {
     decoder: openh264::decoder::Decoder,
     decoded: Vec<u8>,
+    /// Frames decoded so far.
     pub frames_decoded: usize,
+    /// The lowest PSNR of a decoded frame against its render, dB.
     pub min_psnr_db: f64,
+    /// Channel values off by more than 48, over all frames.
     pub outlier_values: usize,
 }
 
 impl SegmentEncoder {
+    /// An encoder of the segment starting at `first_frame`, writing to `sink`, checking by
+    /// decoding when `check`.
     pub fn new(
         settings: &VideoSettings,
         first_frame: usize,

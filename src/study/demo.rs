@@ -35,20 +35,29 @@ fn s(p: &Path) -> String {
 /// What the demo runs on: the mesh and protocol as bytes (the binary bundles the bunny and
 /// hu2020), where it writes, and the virtual observers.
 pub struct DemoInputs<'a> {
+    /// The mesh file's bytes (PLY).
     pub mesh_bytes: &'a [u8],
+    /// The protocol's TOML text.
     pub protocol_toml: &'a str,
+    /// The output folder.
     pub output: &'a Path,
+    /// Virtual observers.
     pub subjects: usize,
+    /// Seed of the observers (and of every other random step).
     pub seed: u64,
 }
 
 /// What the demo made, for the caller to print.
 pub struct DemoOutcome {
+    /// report.html.
     pub report: PathBuf,
+    /// The seven maps' scores against the observers' truth.
     pub score: MeshScore,
     /// Gini index of each method's map.
     pub ginis: Vec<(&'static str, f64)>,
+    /// The truth built from the observers.
     pub truth: TruthResult,
+    /// Wall-clock seconds of the whole run.
     pub seconds: f64,
 }
 
