@@ -43,7 +43,7 @@ pub struct DemoInputs<'a> {
     pub output: &'a Path,
     /// Virtual observers.
     pub subjects: usize,
-    /// Seed of the observers (and of every other random step).
+    /// Seed of the virtual observers (the other steps use their own default seeds).
     pub seed: u64,
 }
 
