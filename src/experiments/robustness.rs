@@ -13,17 +13,21 @@ use crate::progress::Progress;
 use crate::saliency::{compute_saliency_viewed, Method, RarityParams, SmsParams, Viewing};
 use crate::scoring::auc_judd;
 
+/// The paper's robustness experiment (Fig. 8): how each method's map survives noise,
+/// simplification and holes.
 #[derive(Debug, Clone, Serialize)]
 pub struct RobustnessParams {
     /// Noise σ as a fraction of the mean edge length (paper: 20%).
     pub noise_fraction: f64,
     /// Vertices after simplification (paper: 5k).
     pub simplify_to: usize,
+    /// Holes cut into the surface.
     pub holes: usize,
     /// Hole radius in normalized units (half principal-axes box diagonal = 1).
     pub hole_radius: f64,
     /// Positives of the agreement AUC: this top fraction of the clean map.
     pub top_fraction: f64,
+    /// Seed of the noise and of the holes' centres.
     pub seed: u64,
     /// Parameters of sri, gr and mr (their defaults unless `--set`).
     pub rarity: RarityParams,
@@ -45,26 +49,36 @@ impl Default for RobustnessParams {
 
 /// One damaged copy of the mesh.
 pub struct Corrupted {
+    /// The damage's short name, as the tables write it.
     pub name: &'static str,
+    /// The damaged copy.
     pub mesh: Mesh,
+    /// What was done, with its parameters.
     pub description: String,
 }
 
+/// How far one method's map on one damaged copy agrees with its map on the clean mesh.
 #[derive(Debug, Clone, Serialize)]
 pub struct AgreementRow {
+    /// The method.
     pub method: String,
+    /// The damage's short name.
     pub corruption: &'static str,
     /// Pearson correlation with the clean map over the original vertices.
     pub pearson: f64,
     /// AUC of the carried-back map at finding the clean map's top vertices.
     pub auc_top: f64,
+    /// Seconds the method took on the damaged copy.
     pub seconds: f64,
 }
 
+/// The experiment's results.
 pub struct RobustnessResult {
+    /// The damaged copies.
     pub corrupted: Vec<Corrupted>,
     /// Per method: the clean map, then each corrupted copy's own map (on its vertices).
     pub maps: Vec<(Method, Vec<f64>, Vec<Vec<f64>>)>,
+    /// One agreement row per method and damage.
     pub rows: Vec<AgreementRow>,
 }
 
