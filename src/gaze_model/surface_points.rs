@@ -11,7 +11,9 @@ use crate::mesh::Mesh;
 /// Points with unit normals (zero where a normal is unknown).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct SurfacePoints {
+    /// Positions.
     pub positions: Vec<DVec3>,
+    /// Unit normals, one per position (zero where unknown).
     pub normals: Vec<DVec3>,
 }
 
@@ -24,10 +26,12 @@ impl SurfacePoints {
         }
     }
 
+    /// How many points.
     pub fn len(&self) -> usize {
         self.positions.len()
     }
 
+    /// Whether there is no point.
     pub fn is_empty(&self) -> bool {
         self.positions.is_empty()
     }
@@ -37,6 +41,7 @@ impl SurfacePoints {
 /// fixation `time` and the top-5% `flag` (the layout of the VR experiment's upstream files).
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct GazePoints {
+    /// The points and their normals.
     pub points: SurfacePoints,
     /// Per point, when the file has a 7th column.
     pub time: Option<Vec<f64>>,
@@ -47,9 +52,13 @@ pub struct GazePoints {
 /// Why a point file cannot be used, with its place.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PointsError {
+    /// The file.
     pub path: String,
+    /// 1-based line.
     pub line: usize,
+    /// 1-based column.
     pub column: usize,
+    /// What is wrong there.
     pub message: String,
 }
 

@@ -25,6 +25,7 @@ use crate::report::plot::{line_chart_png, Chart, Series, PALETTE};
 pub struct FeatureParams {
     /// Least geodesic separation of two accepted points, in `unit`.
     pub separation: f64,
+    /// What `separation` is measured in.
     pub unit: SeparationUnit,
     /// Steiner points per edge for geodesics (0 = plain edge Dijkstra).
     pub steiner: usize,
@@ -32,18 +33,25 @@ pub struct FeatureParams {
     pub sigma: f64,
     /// Subjects needed near a point for it to be ground truth.
     pub min_subjects: usize,
+    /// Largest tolerance α of the evaluation, fraction of the diameter.
     pub alpha_max: f64,
+    /// Step of α.
     pub alpha_step: f64,
 }
 
 /// What was found and written.
 pub struct FeatureRun {
+    /// Feature points found.
     pub points: usize,
+    /// The separation, in mesh units.
     pub separation_in_mesh_units: f64,
+    /// The geodesic diameter (double sweep), mesh units.
     pub diameter: f64,
+    /// Ground-truth points from the human marks, when given.
     pub truth_points: Option<usize>,
     /// The evaluation at the largest tolerance: (α, recall, precision, F).
     pub last: Option<(f64, f64, f64, f64)>,
+    /// Where the files were written (PREFIX.csv, .json, ...).
     pub prefix: PathBuf,
 }
 

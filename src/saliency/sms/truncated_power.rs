@@ -11,8 +11,10 @@ use serde::Serialize;
 
 use super::descriptor_metric::{deterministic_dot, SymmetricOperator};
 
+/// Limits of the power iterations (the principal eigenpair and the truncated power method).
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct PowerParams {
+    /// Iterations at most.
     pub max_iterations: usize,
     /// Stop when the Rayleigh quotient changes by less than this, relative.
     pub tolerance: f64,
@@ -27,10 +29,14 @@ impl Default for PowerParams {
     }
 }
 
+/// How the principal eigenpair was found.
 #[derive(Debug, Clone, Serialize)]
 pub struct EigenReport {
+    /// The largest eigenvalue.
     pub value: f64,
+    /// Iterations run.
     pub iterations: usize,
+    /// Whether the tolerance was met before the limit.
     pub converged: bool,
 }
 
@@ -82,13 +88,16 @@ pub fn principal_eigenpair(
     )
 }
 
+/// How the truncated power method ran.
 #[derive(Debug, Clone, Serialize)]
 pub struct TruncatedPowerReport {
     /// Non-zeros kept (k = round(μ n)).
     pub k: usize,
     /// The shift ν added to the diagonal.
     pub shift: f64,
+    /// Iterations run.
     pub iterations: usize,
+    /// Whether the tolerance was met before the limit.
     pub converged: bool,
     /// xᵀ M x of the result, without the shift.
     pub objective: f64,
