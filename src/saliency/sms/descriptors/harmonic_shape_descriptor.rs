@@ -48,6 +48,8 @@ pub enum QuadratureRule {
     Adaptive,
 }
 
+/// The multi-scale harmonic shape descriptor: per sample, per ball radius and per shell, the
+/// energy of each spherical-harmonic band of the distance field (the paper's defaults).
 #[derive(Debug, Clone, Serialize)]
 pub struct DescriptorParams {
     /// Ball radii in normalized units (paper: 0.02, 0.04, 0.06, 0.08, 0.10).
@@ -61,8 +63,11 @@ pub struct DescriptorParams {
     /// (aliasing of high angular frequencies) is 1.7e-3 relative with 16 rings, 5.5e-4 with
     /// 24 and 2.4e-4 with 32; 24 keeps it under 1e-3 for 0.4 s of descriptors.
     pub quadrature_rings: usize,
+    /// How many rings each shell gets.
     pub quadrature: QuadratureRule,
+    /// How each shell's band energies are weighted.
     pub shell_weight: ShellWeight,
+    /// Whether each scale's vector is rescaled.
     pub normalization: DescriptorNormalization,
 }
 
@@ -81,19 +86,24 @@ impl Default for DescriptorParams {
 }
 
 impl DescriptorParams {
+    /// Values per scale: shells × bands.
     pub fn per_scale_len(&self) -> usize {
         self.shells * self.bands
     }
+    /// Values of a whole descriptor: scales × shells × bands.
     pub fn len(&self) -> usize {
         self.scales.len() * self.per_scale_len()
     }
+    /// Whether a descriptor has no value.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
+    /// The largest ball radius.
     pub fn max_radius(&self) -> f64 {
         self.scales.iter().cloned().fold(0.0, f64::max)
     }
 
+    /// The radius of shell `shell` of the ball of radius `scale`: (shell + ½)·scale/shells.
     pub fn shell_radius(&self, scale: f64, shell: usize) -> f64 {
         (shell as f64 + 0.5) / self.shells as f64 * scale
     }
@@ -115,12 +125,16 @@ impl DescriptorParams {
 /// Row-major n × dim matrix of descriptors; columns are [scale][shell][band].
 #[derive(Debug, Clone, PartialEq)]
 pub struct Descriptors {
+    /// Rows: one per sample.
     pub n: usize,
+    /// Columns: [`DescriptorParams::len`].
     pub dim: usize,
+    /// The values, row after row.
     pub data: Vec<f64>,
 }
 
 impl Descriptors {
+    /// Sample `i`'s descriptor.
     pub fn row(&self, i: usize) -> &[f64] {
         &self.data[i * self.dim..(i + 1) * self.dim]
     }
