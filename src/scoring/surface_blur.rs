@@ -11,6 +11,8 @@ use crate::scoring::lattice_gauss_transform::{lattice_gauss_transform, lattice_w
 
 use crate::mesh::vertex_areas::vertex_areas;
 
+/// The Euclidean Gaussian blur's exact neighbourhood sums over a grid of 3σ cubes (the direct
+/// part of [`GaussianBlur`], and SI's smoothing).
 pub struct SurfaceBlur {
     positions: Vec<DVec3>,
     areas: Vec<f64>,
@@ -223,7 +225,9 @@ const SPARSE_FRACTION: usize = 64;
 /// Which sum [`GaussianBlur`] uses for the dense maps at one σ.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum GaussianSum {
+    /// Summed over each vertex's neighbourhood, exactly.
     Direct,
+    /// By the lattice Gauss transform (full kernel, large σ).
     Lattice,
 }
 
@@ -383,7 +387,9 @@ pub enum BlurKernel {
 
 /// A blur of per-vertex maps with either kernel, built once per mesh and applied at any σ.
 pub enum MeshBlur {
+    /// A Euclidean Gaussian (cut at 3σ, or full).
     Gaussian(GaussianBlur),
+    /// Heat diffusion along the surface.
     Heat(HeatBlur),
 }
 
@@ -403,6 +409,7 @@ impl MeshBlur {
         }
     }
 
+    /// Every map blurred at `sigma` (σ = 0: copies).
     pub fn blur(&self, maps: &[&[f64]], sigma: f64) -> Result<Vec<Vec<f64>>, String> {
         match self {
             MeshBlur::Gaussian(b) => Ok(b.blur(maps, sigma)),
@@ -431,6 +438,7 @@ pub struct HeatBlur {
 }
 
 impl HeatBlur {
+    /// The cotangent Laplacian and lumped mass of `mesh`, built once.
     pub fn new(mesh: &Mesh) -> HeatBlur {
         let mut edges: Vec<(usize, usize, f64)> = Vec::new();
         for t in 0..mesh.triangles.len() {
