@@ -8,6 +8,7 @@ use serde::Serialize;
 
 use crate::mesh::Mesh;
 
+/// What the curvature estimate met on the mesh.
 #[derive(Debug, Clone, Serialize, Default)]
 pub struct CurvatureReport {
     /// Vertices on a boundary edge: the cotangent formula there measures the boundary curve,
@@ -29,6 +30,7 @@ pub struct VertexTriangles {
 }
 
 impl VertexTriangles {
+    /// The triangles around each vertex of `mesh`.
     pub fn of_mesh(mesh: &Mesh) -> VertexTriangles {
         let n = mesh.positions.len();
         let mut offsets = vec![0usize; n + 1];
@@ -74,15 +76,19 @@ impl VertexTriangles {
 /// Vertex adjacency (1-ring) as compressed rows: neighbours of v are
 /// `targets[offsets[v]..offsets[v + 1]]`, sorted, without duplicates.
 pub struct VertexAdjacency {
+    /// Where each vertex's neighbours start in `targets` (one more entry than vertices).
     pub offsets: Vec<usize>,
+    /// Every vertex's neighbours, one row after another.
     pub targets: Vec<u32>,
 }
 
 impl VertexAdjacency {
+    /// The 1-ring of every vertex of `mesh`.
     pub fn of_mesh(mesh: &Mesh) -> VertexAdjacency {
         VertexAdjacency::from_incidence(mesh, &VertexTriangles::of_mesh(mesh))
     }
 
+    /// The 1-ring from an incidence already built.
     pub fn from_incidence(mesh: &Mesh, incidence: &VertexTriangles) -> VertexAdjacency {
         let n = mesh.positions.len();
         let rows: Vec<Vec<u32>> = (0..n)
@@ -104,6 +110,7 @@ impl VertexAdjacency {
         VertexAdjacency { offsets, targets }
     }
 
+    /// The neighbours of `v`, sorted.
     pub fn neighbours(&self, v: usize) -> &[u32] {
         &self.targets[self.offsets[v]..self.offsets[v + 1]]
     }
