@@ -6,7 +6,9 @@ use std::path::Path;
 /// Why a file could not be read: the I/O error, or corrupt gzip data.
 #[derive(Debug)]
 pub enum ReadError {
+    /// The file could not be read.
     Io(std::io::Error),
+    /// A `.gz` file's data is not valid gzip.
     CorruptGzip(std::io::Error),
 }
 

@@ -42,6 +42,9 @@
 //! With `default-features = false` the crate builds without the command line (no clap, no
 //! progress bars).
 
+// Every public item says what it is: a library user reads these pages, not the source.
+#![deny(missing_docs)]
+
 pub mod experiments;
 pub mod file_bytes;
 pub mod gaze;

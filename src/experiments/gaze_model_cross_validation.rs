@@ -29,22 +29,30 @@ use crate::stimulus::hold_views::hold_view_exposure;
 
 /// A mesh with per-vertex human truth.
 pub struct EvaluationMesh {
+    /// The mesh's name.
     pub name: String,
     /// The dataset folder it came from (leave-one-dataset-out holds these out together).
     pub dataset: String,
+    /// The mesh.
     pub mesh: Mesh,
+    /// The human map, one value per vertex.
     pub values: Vec<f64>,
+    /// The vertices counted as fixated.
     pub positive: Vec<bool>,
 }
 
 /// One method on one held-out mesh.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct CvRow {
+    /// The held-out mesh.
     pub object: String,
+    /// The method (`gaze`, a baseline, `up+mc`, `chance`).
     pub method: String,
+    /// AUC-Judd, unblurred.
     pub auc_judd: f64,
     /// AUC-Judd with only vertices some hold view shows as negatives.
     pub auc_judd_visible: f64,
+    /// LCC against the human map.
     pub lcc: f64,
 }
 
@@ -71,12 +79,16 @@ pub struct CvResult {
 /// What a fold holds out with the mesh it predicts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Scheme {
+    /// Each object held out alone (leave-one-object-out).
     Object,
+    /// Each dataset held out whole.
     Dataset,
+    /// Each object category held out whole.
     Category,
 }
 
 impl Scheme {
+    /// `object`, `dataset` or `category`.
     pub fn name(self) -> &'static str {
         match self {
             Scheme::Object => "object",
@@ -94,27 +106,34 @@ pub struct HeldOutRow {
     pub held_out_by: String,
     /// The held-out group (the object, its dataset or its category).
     pub group: String,
+    /// The held-out mesh.
     pub object: String,
     /// The feature group left out of training, or `none`.
     pub without: String,
+    /// AUC-Judd, unblurred.
     pub auc_judd: f64,
+    /// AUC-Judd with only vertices some hold view shows as negatives.
     pub auc_judd_visible: f64,
+    /// LCC against the human map.
     pub lcc: f64,
 }
 
 /// Object name -> category, read from a two-column TSV (`name<TAB>category`, `#` comments).
 #[derive(Debug, Clone, Default)]
 pub struct Categories {
+    /// (object, category) pairs, in file order.
     pub of: Vec<(String, String)>,
 }
 
 impl Categories {
+    /// The categories file at `path`.
     pub fn read(path: &Path) -> Result<Categories, String> {
         let text = std::fs::read_to_string(path)
             .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
         Categories::parse(&text, &path.display().to_string())
     }
 
+    /// Categories from TSV text; `name` labels the errors (name:line).
     pub fn parse(text: &str, name: &str) -> Result<Categories, String> {
         let mut of: Vec<(String, String)> = Vec::new();
         for (i, line) in text.lines().enumerate() {
@@ -145,6 +164,7 @@ impl Categories {
         Ok(Categories { of })
     }
 
+    /// The category of `object`, when the file names one.
     pub fn category(&self, object: &str) -> Option<&str> {
         self.of
             .iter()

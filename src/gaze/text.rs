@@ -29,8 +29,11 @@ pub fn lines(text: &str) -> Vec<(usize, &str)> {
 /// How a table's fields are separated.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Separator {
+    /// TAB.
     Tab,
+    /// `,`.
     Comma,
+    /// `;`.
     Semicolon,
     /// Runs of two or more spaces (files whose TABs were replaced by spaces).
     Spaces,

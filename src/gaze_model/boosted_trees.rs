@@ -9,6 +9,7 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+/// Gradient-boosted trees' training parameters (logistic loss).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct BoostParams {
     /// Trees.
@@ -41,18 +42,24 @@ impl Default for BoostParams {
 /// One node: a split `value <= threshold` (left) or a leaf (`feature` = None).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Node {
+    /// The feature a split tests (None: a leaf).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub feature: Option<usize>,
+    /// A split's threshold.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub threshold: Option<f64>,
+    /// The node for `value <= threshold`.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub left: Option<usize>,
+    /// The node for the rest.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub right: Option<usize>,
+    /// A leaf's value (log-odds).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub value: Option<f64>,
 }
 
+/// One regression tree.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Tree {
     /// Its nodes; the root is the first.

@@ -72,15 +72,19 @@ pub fn feature_group(name: &str) -> &'static str {
 /// Column-major feature matrix: `columns[f][i]` is feature f of point i.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FeatureMatrix {
+    /// Feature names, one per column.
     pub names: Vec<String>,
+    /// The columns.
     pub columns: Vec<Vec<f64>>,
 }
 
 impl FeatureMatrix {
+    /// Points (rows).
     pub fn rows(&self) -> usize {
         self.columns.first().map_or(0, Vec::len)
     }
 
+    /// The column called `name`.
     pub fn column(&self, name: &str) -> Option<&[f64]> {
         let i = self.names.iter().position(|n| n == name)?;
         Some(&self.columns[i])

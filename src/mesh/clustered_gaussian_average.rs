@@ -33,7 +33,10 @@ pub enum GaussianSum {
     /// Over cubes of side σ/`cells_per_sigma`, each by its weight, centroid and second
     /// moments (this module): the cost per vertex no longer
     /// grows with the mesh's density.
-    Clustered { cells_per_sigma: f64 },
+    Clustered {
+        /// Cubes per σ along each axis.
+        cells_per_sigma: f64,
+    },
 }
 
 const LANES: usize = 8;

@@ -112,9 +112,11 @@ pub enum BoundingBox {
 /// origin and half the bounding-box diagonal equal to 1 (paper §3.2).
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct Normalization {
+    /// The area-weighted surface centroid, input units.
     pub center: [f64; 3],
     /// Multiply (p - center) by this.
     pub scale: f64,
+    /// The box whose half diagonal becomes 1.
     pub bounding_box: BoundingBox,
     /// Half the bounding-box diagonal in input units.
     pub radius: f64,
@@ -124,6 +126,7 @@ pub struct Normalization {
 const MOMENT_BLOCK: usize = 1 << 16;
 
 impl Normalization {
+    /// The normalization of `mesh` by `bbox`.
     pub fn of_mesh(mesh: &Mesh, bbox: BoundingBox) -> Normalization {
         // Area-weighted centroid and second moments of the surface. Each triangle's terms are
         // computed in parallel, a block at a time, and summed in triangle order: the same
@@ -212,6 +215,7 @@ impl Normalization {
         }
     }
 
+    /// `p` in the normalized frame.
     pub fn apply(&self, p: DVec3) -> DVec3 {
         (p - DVec3::from_array(self.center)) * self.scale
     }

@@ -6,8 +6,11 @@ use crate::file_bytes::{read_maybe_gzipped, ReadError};
 /// The mesh file formats meshgaze reads. Any of them may be gzip-compressed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum MeshFormat {
+    /// Wavefront OBJ.
     Obj,
+    /// Stanford PLY (ASCII or binary).
     Ply,
+    /// Object File Format.
     Off,
 }
 
@@ -47,6 +50,7 @@ impl MeshFormat {
         }
     }
 
+    /// `obj`, `ply` or `off`.
     pub fn name(self) -> &'static str {
         match self {
             MeshFormat::Obj => "obj",

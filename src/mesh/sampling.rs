@@ -5,9 +5,12 @@ use rand_chacha::ChaCha8Rng;
 
 use crate::mesh::Mesh;
 
+/// A random point on the surface and the triangle it lies in.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SurfaceSample {
+    /// The point.
     pub point: DVec3,
+    /// Its triangle.
     pub triangle: u32,
 }
 

@@ -9,6 +9,7 @@ use super::Mesh;
 pub struct ColorRamp;
 
 impl ColorRamp {
+    /// The colour at ramp position `t` (0 blue, through cyan, green and yellow, to 1 red).
     pub fn rgb(&self, t: f64) -> [u8; 3] {
         const STOPS: [[f64; 3]; 5] = [
             [0.0, 0.0, 1.0],
@@ -35,7 +36,9 @@ impl ColorRamp {
 /// lets a few extreme vertices push every other one into the bottom colour.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ColorScale {
+    /// The value shown blue (the 1st percentile).
     pub lo: f64,
+    /// The value shown red (the 99th percentile).
     pub hi: f64,
 }
 
@@ -45,6 +48,7 @@ impl ColorScale {
     /// The words every picture states under it.
     pub const RULE: &'static str = "colour: blue (1st percentile of the map) to red (99th)";
 
+    /// The scale of `values`.
     pub fn of(values: &[f64]) -> ColorScale {
         let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
         if v.is_empty() {

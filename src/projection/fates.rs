@@ -25,6 +25,7 @@ pub enum ProjectionFate {
 }
 
 impl ProjectionFate {
+    /// Every fate, in the order tables list them.
     pub const ALL: [ProjectionFate; 7] = [
         ProjectionFate::Hit,
         ProjectionFate::Snapped,
@@ -35,6 +36,7 @@ impl ProjectionFate {
         ProjectionFate::Filtered,
     ];
 
+    /// The name projected.csv writes.
     pub fn name(self) -> &'static str {
         match self {
             ProjectionFate::Hit => "hit",
@@ -47,6 +49,7 @@ impl ProjectionFate {
         }
     }
 
+    /// The fate of a name, as [`ProjectionFate::name`] writes it.
     pub fn parse(s: &str) -> Option<ProjectionFate> {
         ProjectionFate::ALL.into_iter().find(|f| f.name() == s)
     }

@@ -18,14 +18,17 @@ use crate::mesh::Mesh;
 /// The first surface point along a ray.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Hit {
+    /// The triangle hit.
     pub triangle: usize,
     /// Distance along the (unit) ray direction.
     pub t: f64,
+    /// The point hit.
     pub point: DVec3,
     /// Barycentric weights of the triangle's three corners.
     pub barycentric: [f64; 3],
 }
 
+/// First hits of rays on a mesh, through a BVH with a watertight triangle test.
 pub struct RayCaster<'a> {
     mesh: &'a Mesh,
     bvh: Bvh2,
@@ -58,6 +61,7 @@ impl<'a> RayCaster<'a> {
         RayCaster { mesh, bvh }
     }
 
+    /// The mesh it casts on.
     pub fn mesh(&self) -> &Mesh {
         self.mesh
     }

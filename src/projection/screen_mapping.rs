@@ -4,9 +4,13 @@ use serde::Serialize;
 /// How gaze coordinates (the tracker's screen) relate to the video's pixels.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize)]
 pub struct ScreenMapping {
+    /// The tracker's screen width, px.
     pub screen_width_px: f64,
+    /// The tracker's screen height, px.
     pub screen_height_px: f64,
+    /// The video's width, px (shown letterboxed on that screen).
     pub video_width_px: u32,
+    /// The video's height, px.
     pub video_height_px: u32,
 }
 

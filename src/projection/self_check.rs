@@ -11,6 +11,7 @@ use super::{ProjectedFixation, ProjectionFate, RayCaster, ScreenMapping};
 use crate::stimulus::camera::{CameraPlan, Phase};
 use crate::stimulus::raster::{Rasterizer, BACKGROUND_ID};
 
+/// The projector checked against the renderer: the triangle each hold fixation hit against the id image of its frame.
 #[derive(Debug, Clone, Serialize, Default)]
 pub struct SelfCheck {
     /// Hold-phase fixations that hit the mesh or the background (not snapped, not off the

@@ -37,6 +37,7 @@ pub fn file_data_uri(path: &Path) -> Result<String, ReportError> {
     ))
 }
 
+/// `img` scaled to `width` pixels wide.
 pub fn thumbnail(img: &RgbImage, width: u32) -> RgbImage {
     let h = (img.height() as f64 * width as f64 / img.width() as f64).round() as u32;
     image::imageops::resize(img, width, h, image::imageops::FilterType::Triangle)

@@ -20,7 +20,9 @@ const STYLE: &str = include_str!("viewer.css");
 
 /// What the viewer shows.
 pub struct ViewerInput<'a> {
+    /// The page's title (the mesh's name).
     pub title: String,
+    /// The mesh.
     pub mesh: &'a Mesh,
     /// Per-vertex saliency maps, by method name, in the order the chooser lists them.
     pub maps: Vec<(String, Vec<f64>)>,

@@ -13,6 +13,7 @@ use crate::truth::read_density;
 /// What to show, as paths.
 #[derive(Debug, Clone, Default)]
 pub struct ViewFiles {
+    /// The mesh file.
     pub mesh: PathBuf,
     /// Per-vertex maps (`vertex,saliency` CSV or any per-vertex format), named by file stem,
     /// or `NAME=PATH`.
@@ -24,6 +25,7 @@ pub struct ViewFiles {
     pub fixations: Vec<PathBuf>,
     /// A stimulus folder (or manifest.json) rendered from this mesh.
     pub stimulus: Option<PathBuf>,
+    /// Above which size the mesh is shown simplified.
     pub limits: ViewerLimits,
 }
 

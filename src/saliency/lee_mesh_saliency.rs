@@ -21,6 +21,7 @@ use crate::mesh::mean_curvature::{
 use crate::mesh::Mesh;
 use glam::DVec3;
 
+/// Parameters of Lee et al.'s mesh saliency (their defaults).
 #[derive(Debug, Clone, Serialize)]
 pub struct LeeParams {
     /// ε as a fraction of the bounding-box diagonal (Lee et al.: 0.003).
@@ -43,9 +44,12 @@ impl Default for LeeParams {
     }
 }
 
+/// What a run of MS met.
 #[derive(Debug, Clone, Serialize)]
 pub struct LeeReport {
+    /// ε in the mesh's units.
     pub epsilon: f64,
+    /// The mean-curvature estimate's report.
     pub curvature: CurvatureReport,
     /// Per scale: mean of the local maxima other than the global one, after rescaling.
     pub suppression_mean_of_maxima: Vec<f64>,

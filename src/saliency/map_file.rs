@@ -93,8 +93,11 @@ struct Sidecar<'a> {
 
 /// What one map computation produced.
 pub struct SaliencyRun {
+    /// The map's Gini index.
     pub gini: f64,
+    /// Seconds the method took.
     pub seconds: f64,
+    /// The map, one value per vertex.
     pub values: Vec<f64>,
     /// Every file written.
     pub outputs: Vec<String>,

@@ -27,6 +27,7 @@ use crate::mesh::vertex_areas::vertex_areas;
 use crate::mesh::Mesh;
 use crate::scoring::surface_blur::SurfaceBlur;
 
+/// Parameters of SI (Song et al. 2014).
 #[derive(Debug, Clone, Serialize)]
 pub struct SpectralParams {
     /// Vertices of the simplified copy the spectrum is computed on.
@@ -55,10 +56,14 @@ impl Default for SpectralParams {
     }
 }
 
+/// What a run of SI met.
 #[derive(Debug, Clone, Serialize)]
 pub struct SpectralReport {
+    /// Vertices of the simplified copy.
     pub simplified_vertices: usize,
+    /// Triangles of the simplified copy.
     pub simplified_triangles: usize,
+    /// Eigenvalues at or below 10⁻¹² of the largest, taken as zero in the log spectrum.
     pub zero_eigenvalues: usize,
 }
 

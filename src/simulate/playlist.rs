@@ -13,7 +13,9 @@ const GAP_US: i64 = 2_000_000;
 
 /// One subject's playlist: the stimuli in the order shown, and the recording.
 pub struct PlaylistSubject {
+    /// The stimuli in the order shown.
     pub order: Vec<String>,
+    /// The subject's one recording of all of them.
     pub recording: VirtualSubject,
 }
 

@@ -9,6 +9,7 @@ use super::raster::{Rasterizer, BACKGROUND_ID};
 use crate::mesh::Mesh;
 use crate::protocol::Protocol;
 
+/// Which vertices the subjects saw in the video's hold views, and how close to the screen centre.
 #[derive(Debug, Clone, PartialEq)]
 pub struct HoldViewExposure {
     /// Hold views in which at least one pixel of a triangle around the vertex is drawn.
@@ -16,10 +17,12 @@ pub struct HoldViewExposure {
     /// Mean over those views of 1 − (distance of the vertex's projection from the screen
     /// centre / half the screen diagonal); 0 for a vertex no view shows.
     pub centre_closeness: Vec<f64>,
+    /// Hold views rendered.
     pub views: usize,
 }
 
 impl HoldViewExposure {
+    /// Whether each vertex is shown in some hold view.
     pub fn seen(&self) -> Vec<bool> {
         self.seen_views.iter().map(|&s| s > 0).collect()
     }

@@ -39,6 +39,7 @@ use crate::provenance::{sha256_hex, InputFile, Provenance};
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
 #[serde(rename_all = "lowercase")]
 pub enum FrameImages {
+    /// No PNG.
     None,
     /// The first frame of every hold.
     Keyframes,
@@ -46,8 +47,10 @@ pub enum FrameImages {
     All,
 }
 
+/// What to write beside the video.
 #[derive(Debug, Clone)]
 pub struct StimulusOptions {
+    /// Which frames to also write as PNG.
     pub frames: FrameImages,
     /// Per-keyframe triangle-id images (no anti-aliasing).
     pub id_buffer: bool,

@@ -12,6 +12,7 @@ use crate::mesh::Mesh;
 use crate::protocol::Rendering;
 use std::marker::PhantomData;
 
+/// The triangle id of a background pixel in an id image.
 pub const BACKGROUND_ID: u32 = u32::MAX;
 
 /// A mesh prepared for rendering: positions and area-weighted vertex normals, with its
@@ -97,6 +98,7 @@ struct Binned {
 }
 
 impl<'a> Rasterizer<'a> {
+    /// A rasterizer of `mesh`.
     pub fn new(mesh: &'a Mesh) -> Rasterizer<'a> {
         let normals = mesh.vertex_normals();
         let (lo, hi) = mesh

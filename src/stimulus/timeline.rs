@@ -5,6 +5,7 @@ use std::path::Path;
 use super::camera::{CameraPlan, CameraState};
 use crate::protocol::Protocol;
 
+/// The timeline CSV's header.
 pub fn timeline_header() -> String {
     let mut h = vec![
         "frame",

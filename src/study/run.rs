@@ -45,10 +45,13 @@ pub struct RunOptions {
 /// What happened to one step.
 #[derive(Debug, Clone, Serialize, PartialEq)]
 pub struct StepLog {
+    /// The mesh (`*` for the study-wide ingest).
     pub mesh: String,
+    /// `stimulus`, `ingest`, `project`, `truth`, `saliency` or `score`.
     pub step: String,
     /// `done`, `up-to-date`, `skipped` or `failed`.
     pub outcome: &'static str,
+    /// What it wrote, or why it failed.
     pub detail: String,
     /// Wall-clock seconds the step took (the ingest of every recording for `ingest`).
     pub seconds: f64,
@@ -73,11 +76,14 @@ impl StepClock<'_> {
 /// The run's account, as study.json and the log show it.
 #[derive(Debug, Clone, Serialize)]
 pub struct StudyRun {
+    /// Every step, in order.
     pub steps: Vec<StepLog>,
     /// Problems that did not stop the study (a video no mesh has, a mesh no recording shows,
     /// an unreadable recording).
     pub problems: Vec<String>,
+    /// The meshes this run (or shard) took.
     pub meshes_in_shard: Vec<String>,
+    /// Recordings of the study.
     pub recordings: usize,
 }
 

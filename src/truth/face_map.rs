@@ -16,7 +16,9 @@ pub enum TruthLayout {
     /// mesh has a different number of vertices), else per vertex.
     #[default]
     Auto,
+    /// One value per vertex.
     Vertex,
+    /// One value per face, in file order.
     Face,
 }
 

@@ -18,9 +18,12 @@ pub fn local_maxima(mesh: &Mesh, values: &[f64]) -> Vec<usize> {
         .collect()
 }
 
+/// A feature point: a local maximum of the map, kept when no more salient point lies within the separation.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FeaturePoint {
+    /// Its vertex.
     pub vertex: usize,
+    /// The map's value there.
     pub saliency: f64,
 }
 

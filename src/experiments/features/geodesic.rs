@@ -12,6 +12,7 @@ use glam::DVec3;
 
 use crate::mesh::Mesh;
 
+/// A graph for geodesic distances on a mesh: its edges, plus Steiner points on them when asked.
 pub struct GeodesicGraph {
     /// Graph nodes: mesh vertices first (node v = vertex v), then Steiner points.
     positions: Vec<DVec3>,
@@ -37,6 +38,7 @@ impl PartialOrd for Entry {
 }
 
 impl GeodesicGraph {
+    /// The graph of `mesh` with `steiner` points on each edge (0: the plain edge graph).
     pub fn new(mesh: &Mesh, steiner: usize) -> GeodesicGraph {
         let n = mesh.positions.len();
         let mut positions = mesh.positions.clone();
@@ -94,6 +96,7 @@ impl GeodesicGraph {
         }
     }
 
+    /// Nodes: the mesh's vertices, then the Steiner points.
     pub fn node_count(&self) -> usize {
         self.positions.len()
     }

@@ -12,7 +12,9 @@ use super::geodesic::GeodesicGraph;
 /// A ground-truth point and how many subjects marked near it.
 #[derive(Debug, Clone, PartialEq, Serialize)]
 pub struct TruthPoint {
+    /// The vertex.
     pub vertex: usize,
+    /// Subjects who marked near it.
     pub subjects: usize,
 }
 
@@ -86,18 +88,28 @@ pub fn voted_ground_truth(
     truth
 }
 
+/// Detected points against the ground truth at one tolerance α (Dutagaci et al. 2012).
 #[derive(Debug, Clone, Serialize)]
 pub struct Evaluation {
     /// Tolerance as a fraction of the diameter.
     pub alpha: f64,
+    /// Ground-truth points.
     pub truth_points: usize,
+    /// Detected points.
     pub detected_points: usize,
+    /// Ground-truth points with a detected point within α.
     pub matched: usize,
+    /// False negative error: the share of ground-truth points missed.
     pub false_negative_error: f64,
+    /// False positive error: the share of detected points near no ground-truth point.
     pub false_positive_error: f64,
+    /// Weighted miss error: misses weighted by how many subjects marked them.
     pub weighted_miss_error: f64,
+    /// Recall, 1 − false negative error.
     pub recall: f64,
+    /// Precision, 1 − false positive error.
     pub precision: f64,
+    /// Harmonic mean of recall and precision.
     pub f_measure: f64,
 }
 

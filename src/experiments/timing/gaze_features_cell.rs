@@ -13,6 +13,7 @@ use crate::Protocol;
 /// What predicting one mesh with the gaze model costs, by feature group.
 #[derive(Debug, Serialize, Deserialize)]
 pub struct GazeFeaturesCell {
+    /// Vertices of the mesh.
     pub vertices: usize,
     /// (group, seconds) in the order they are computed.
     pub groups: Vec<(String, f64)>,

@@ -16,11 +16,17 @@ use crate::Protocol;
 /// What scoring one mesh the way a study does costs.
 #[derive(Debug, Serialize, Deserialize)]
 pub struct ScoringCell {
+    /// Vertices of the mesh.
     pub vertices: usize,
+    /// Maps scored.
     pub maps: usize,
+    /// Fixations of the truth.
     pub fixations: usize,
+    /// Subjects of the truth.
     pub subjects: usize,
+    /// Blur widths of the grid.
     pub blur_scales: usize,
+    /// Random maps of the chance band.
     pub chance_draws: usize,
     /// Computing the seven maps (not part of the scoring time).
     pub maps_s: f64,

@@ -20,6 +20,7 @@ use super::zernike_height_map::zernike_descriptors;
 use crate::mesh::over_segmentation::{over_segment, Patches};
 use crate::mesh::Mesh;
 
+/// Parameters of GR (Wu et al. 2013); docs/baselines.md gives the choices.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct GrParams {
@@ -33,6 +34,7 @@ pub struct GrParams {
     pub patches: usize,
     /// w: weight of local contrast against global rarity.
     pub local_weight: f64,
+    /// Seed of the over-segmentation's first patch centre.
     pub seed: u64,
 }
 
@@ -58,6 +60,7 @@ pub struct GrReport {
     pub descriptor_length: usize,
 }
 
+/// GR's map of `mesh`, one value per input vertex, with its report.
 pub fn global_rarity_saliency(
     mesh: &Mesh,
     params: &GrParams,

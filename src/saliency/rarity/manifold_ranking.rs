@@ -21,6 +21,7 @@ use super::zernike_height_map::zernike_descriptors;
 use crate::mesh::over_segmentation::{over_segment, Patches};
 use crate::mesh::Mesh;
 
+/// Parameters of MR (Tao et al. 2015); docs/baselines.md gives the choices.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct MrParams {
@@ -30,6 +31,7 @@ pub struct MrParams {
     pub radii: Vec<f64>,
     /// Highest Zernike order.
     pub order: usize,
+    /// Patches of the over-segmentation.
     pub patches: usize,
     /// Rings of neighbouring patches forming a patch's surround.
     pub surround_rings: usize,
@@ -41,7 +43,10 @@ pub struct MrParams {
     pub alpha: f64,
     /// σ of the affinity in descriptor units; 0: the root mean squared neighbour distance.
     pub sigma: f64,
+    /// Steps of Laplacian smoothing of the vertex map (each vertex moves halfway to its
+    /// neighbours' mean).
     pub smoothing_iterations: usize,
+    /// Seed of the over-segmentation's first patch centre.
     pub seed: u64,
 }
 
@@ -75,6 +80,7 @@ pub struct MrReport {
     pub ranking_residual: f64,
 }
 
+/// MR's map of `mesh`, one value per input vertex, with its report.
 pub fn manifold_ranking_saliency(
     mesh: &Mesh,
     params: &MrParams,

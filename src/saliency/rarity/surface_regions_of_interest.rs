@@ -28,6 +28,7 @@ use crate::mesh::edge_graph::distance_or_euclidean;
 use crate::mesh::over_segmentation::{over_segment, Patches};
 use crate::mesh::Mesh;
 
+/// Parameters of SRI (Leifman et al. 2012); docs/baselines.md gives the choices.
 #[derive(Debug, Clone, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
 pub struct SriParams {
@@ -35,7 +36,9 @@ pub struct SriParams {
     pub vertices: usize,
     /// Spin-image support radii (normalized units: half the bounding-box diagonal = 1).
     pub radii: Vec<f64>,
+    /// Spin-image bins along α (distance from the normal axis).
     pub alpha_bins: usize,
+    /// Spin-image bins along β (height along the normal).
     pub beta_bins: usize,
     /// Principal components kept of each spin image.
     pub pca_dims: usize,
@@ -56,6 +59,7 @@ pub struct SriParams {
     /// An extremity at this multiple of the embedding's median radius (or farther) is a
     /// focus of full weight; one at the median radius weighs nothing.
     pub extremity_reach: f64,
+    /// Seed of the random steps.
     pub seed: u64,
 }
 
@@ -93,6 +97,7 @@ pub struct SriReport {
     pub distinct_foci: usize,
 }
 
+/// SRI's map of `mesh`, one value per input vertex, with its report.
 pub fn surface_regions_of_interest(
     mesh: &Mesh,
     params: &SriParams,

@@ -10,7 +10,9 @@ use crate::saliency::sms::descriptors::Descriptors;
 
 /// A symmetric linear map on R^n.
 pub trait SymmetricOperator: Sync {
+    /// n.
     fn size(&self) -> usize;
+    /// y = A x.
     fn apply(&self, x: &[f64], y: &mut [f64]);
 }
 
@@ -28,12 +30,14 @@ pub fn deterministic_dot(a: &[f64], b: &[f64]) -> f64 {
     partials.iter().sum()
 }
 
+/// The paper's descriptor metric M as an operator: applied without forming the n × n matrix.
 pub struct DescriptorMetric<'a> {
     f: &'a Descriptors,
     g: Vec<f64>,
 }
 
 impl<'a> DescriptorMetric<'a> {
+    /// The metric of these descriptors.
     pub fn new(f: &'a Descriptors) -> Self {
         let g = (0..f.n)
             .into_par_iter()
@@ -101,7 +105,9 @@ impl SymmetricOperator for DescriptorMetric<'_> {
 
 /// An explicit dense symmetric matrix, for tests and small problems.
 pub struct DenseSymmetric {
+    /// n.
     pub n: usize,
+    /// The n × n entries, row-major.
     pub data: Vec<f64>,
 }
 

@@ -16,10 +16,14 @@ pub enum InterpolationKind {
     Sum,
 }
 
+/// How sample saliency was carried to vertices.
 #[derive(Debug, Clone, Serialize)]
 pub struct InterpolationReport {
+    /// The Gaussian σ, normalized units.
     pub sigma: f64,
+    /// The cutoff radius (3σ).
     pub radius: f64,
+    /// Weighted mean or weighted sum.
     pub kind: InterpolationKind,
     /// Vertices with no sample within the radius; they take the nearest sample's value.
     pub vertices_without_sample_in_radius: usize,

@@ -20,6 +20,7 @@ use crate::mesh::Mesh;
 
 /// Anything that gives the Gaussian distance field at a point of the normalized frame.
 pub trait GaussianField: Sync {
+    /// The field at `p`.
     fn value(&self, p: DVec3) -> f32;
 
     /// The shortest length over which the field can change (a grid's voxel size), or None
@@ -43,6 +44,7 @@ pub trait GaussianField: Sync {
     }
 }
 
+/// The distance-field grid.
 #[derive(Debug, Clone, Copy, Serialize)]
 pub struct GridParams {
     /// Voxels per side (paper: 256).
@@ -65,6 +67,7 @@ pub struct GridField {
     origin: DVec3,
     /// Voxel size in normalized units.
     pub h: f64,
+    /// Voxels per side.
     pub resolution: usize,
     /// Gaussian width in normalized units.
     pub sigma: f64,
@@ -743,7 +746,9 @@ fn gaussian_of_exact_distance(
 /// for production; it is the reference that validates the grid and the descriptor's rotation
 /// invariance without grid error.
 pub struct ExactField<'a> {
+    /// The mesh, normalized.
     pub mesh: &'a Mesh,
+    /// The Gaussian width, normalized units.
     pub sigma: f64,
 }
 
