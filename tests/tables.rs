@@ -141,6 +141,7 @@ proptest! {
         let i = at % buf.len();
         buf[i] = byte;
         if let Err(e) = parse_fixations_csv(&buf, "fix.csv") {
+            let e = e.to_string();
             prop_assert!(e.starts_with("fix.csv:"), "{}", e);
         }
     }

@@ -16,7 +16,7 @@ fuzz_target!(|data: &[u8]| {
             let again = parse_fixations_csv(&buf, "f").unwrap();
             assert_eq!(again.len(), rows.len());
         }
-        Err(e) => assert!(e.starts_with("f:")),
+        Err(e) => assert!(e.to_string().starts_with("f:")),
     }
     match parse_projected_csv(data, "p") {
         Ok(rows) => {

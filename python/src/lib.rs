@@ -308,7 +308,7 @@ fn read_gaze<'py>(
     params.format = format
         .map(GazeFormat::from_short_name)
         .transpose()
-        .map_err(PyValueError::new_err)?;
+        .map_err(|e| PyValueError::new_err(e.to_string()))?;
     params.detector = detector.map(|d| parse_name("detector", d)).transpose()?;
     params.eye = parse_name("eye", eye)?;
     params.validity = parse_name("validity", validity)?;

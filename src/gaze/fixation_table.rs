@@ -96,23 +96,31 @@ pub fn write_fixations_csv<W: Write>(out: W, rows: &[FixationRow]) -> Result<(),
 }
 
 /// Reads a `fixations.csv`; errors name the file, line and field.
-pub fn read_fixations_csv(path: &Path) -> Result<Vec<FixationRow>, String> {
+pub fn read_fixations_csv(path: &Path) -> Result<Vec<FixationRow>, super::GazeError> {
     let bytes = crate::file_bytes::read_maybe_gzipped(path)
-        .map_err(|e| format!("{}: {e}", path.display()))?;
+        .map_err(|e| super::GazeError::file(path, e.to_string()))?;
     parse_fixations_csv(&bytes, &path.display().to_string())
 }
 
 /// fixations.csv from bytes; `name` labels the errors (name:line:column).
-pub fn parse_fixations_csv(bytes: &[u8], name: &str) -> Result<Vec<FixationRow>, String> {
+pub fn parse_fixations_csv(bytes: &[u8], name: &str) -> Result<Vec<FixationRow>, super::GazeError> {
+    let row_error = |line: usize, message: String| super::GazeError::Row {
+        path: name.to_string(),
+        line,
+        message,
+    };
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     let mut r = csv::ReaderBuilder::new().from_reader(bytes);
-    let headers = r.headers().map_err(|e| format!("{name}:1: {e}"))?.clone();
+    let headers = r
+        .headers()
+        .map_err(|e| row_error(1, e.to_string()))?
+        .clone();
     for needed in HEADER {
         if !headers.iter().any(|h| h == *needed) {
-            return Err(format!(
-                "{name}:1: no `{needed}` column; is this a fixations.csv written by `meshgaze ingest`? (columns: {})",
+            return Err(row_error(1, format!(
+                "no `{needed}` column; is this a fixations.csv written by `meshgaze ingest`? (columns: {})",
                 headers.iter().collect::<Vec<_>>().join(",")
-            ));
+            )));
         }
     }
     let mut rows = Vec::new();
@@ -125,7 +133,7 @@ pub fn parse_fixations_csv(bytes: &[u8], name: &str) -> Result<Vec<FixationRow>,
                     csv::ErrorKind::Deserialize { err, .. } => err
                         .field()
                         .and_then(|i| headers.get(i as usize))
-                        .map(|h| format!(" column `{h}`:"))
+                        .map(|h| format!("column `{h}`: "))
                         .unwrap_or_default(),
                     _ => String::new(),
                 };
@@ -133,7 +141,7 @@ pub fn parse_fixations_csv(bytes: &[u8], name: &str) -> Result<Vec<FixationRow>,
                     csv::ErrorKind::Deserialize { err, .. } => err.kind().to_string(),
                     other => format!("{other:?}"),
                 };
-                return Err(format!("{name}:{line}:{field} {message}"));
+                return Err(row_error(line as usize, format!("{field}{message}")));
             }
         }
     }
@@ -176,9 +184,13 @@ mod tests {
         let mut buf = Vec::new();
         write_fixations_csv(&mut buf, &[row("s01"), row("s02")]).unwrap();
         let text = String::from_utf8(buf).unwrap().replace("811.25", "8x1");
-        let e = parse_fixations_csv(text.as_bytes(), "fix.csv").unwrap_err();
+        let e = parse_fixations_csv(text.as_bytes(), "fix.csv")
+            .unwrap_err()
+            .to_string();
         assert!(e.starts_with("fix.csv:2: column `x_px`:"), "{e}");
-        let e = parse_fixations_csv(b"a,b\n1,2\n", "fix.csv").unwrap_err();
+        let e = parse_fixations_csv(b"a,b\n1,2\n", "fix.csv")
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("no `subject` column"), "{e}");
     }
 }

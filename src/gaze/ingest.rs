@@ -71,10 +71,7 @@ impl IngestParams {
                 rules.stimulus_end_pattern.as_deref(),
             ),
         };
-        let pattern = start
-            .map(|p| StimulusPattern::new(p, end))
-            .transpose()
-            .map_err(GazeError::Invalid)?;
+        let pattern = start.map(|p| StimulusPattern::new(p, end)).transpose()?;
         Ok(IngestParams {
             format: None,
             detector: None,

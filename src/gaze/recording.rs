@@ -121,13 +121,16 @@ impl GazeFormat {
     }
 
     /// The format of a `--format` name, or an error listing the names.
-    pub fn from_short_name(name: &str) -> Result<GazeFormat, String> {
+    pub fn from_short_name(name: &str) -> Result<GazeFormat, GazeError> {
         GazeFormat::ALL
             .into_iter()
             .find(|f| f.short_name() == name)
             .ok_or_else(|| {
                 let names: Vec<&str> = GazeFormat::ALL.iter().map(|f| f.short_name()).collect();
-                format!("unknown gaze format `{name}`; one of {}", names.join(", "))
+                GazeError::Invalid(format!(
+                    "unknown gaze format `{name}`; one of {}",
+                    names.join(", ")
+                ))
             })
     }
 }
@@ -475,6 +478,16 @@ pub enum GazeError {
         /// Why, and what to do.
         message: String,
     },
+    /// A row of a table meshgaze wrote (fixations.csv) cannot be read back.
+    #[error("{path}:{line}: {message}")]
+    Row {
+        /// The table.
+        path: String,
+        /// 1-based line, the header being line 1.
+        line: usize,
+        /// Which column, and what is wrong.
+        message: String,
+    },
     /// An option cannot be used (a stimulus pattern that is not a regular expression, an
     /// unknown format name).
     #[error("{0}")]
@@ -522,13 +535,14 @@ mod format_name_tests {
     fn every_format_has_one_short_name_that_parses_back() {
         let mut names: Vec<&str> = GazeFormat::ALL.iter().map(|f| f.short_name()).collect();
         for f in GazeFormat::ALL {
-            assert_eq!(GazeFormat::from_short_name(f.short_name()), Ok(f));
+            assert_eq!(GazeFormat::from_short_name(f.short_name()).ok(), Some(f));
         }
         names.sort();
         names.dedup();
         assert_eq!(names.len(), GazeFormat::ALL.len());
         assert!(GazeFormat::from_short_name("smi")
             .unwrap_err()
+            .to_string()
             .contains("eyelink"));
     }
 

@@ -61,17 +61,20 @@ pub struct StimulusPattern {
 
 impl StimulusPattern {
     /// Compiles the patterns; the start pattern must have exactly one capture group.
-    pub fn new(start: &str, end: Option<&str>) -> Result<StimulusPattern, String> {
+    pub fn new(start: &str, end: Option<&str>) -> Result<StimulusPattern, super::GazeError> {
+        use super::GazeError::Invalid;
         let start_re =
-            Regex::new(start).map_err(|e| format!("--stimulus-pattern `{start}`: {e}"))?;
+            Regex::new(start).map_err(|e| Invalid(format!("--stimulus-pattern `{start}`: {e}")))?;
         if start_re.captures_len() != 2 {
-            return Err(format!(
+            return Err(Invalid(format!(
                 "--stimulus-pattern `{start}` has {} capture groups; it needs exactly one, around the stimulus name, e.g. `start_trial \\d+ (.*)`",
                 start_re.captures_len() - 1
-            ));
+            )));
         }
         let end = end
-            .map(|e| Regex::new(e).map_err(|err| format!("--stimulus-end-pattern `{e}`: {err}")))
+            .map(|e| {
+                Regex::new(e).map_err(|err| Invalid(format!("--stimulus-end-pattern `{e}`: {err}")))
+            })
             .transpose()?;
         Ok(StimulusPattern {
             start: start_re,

@@ -234,7 +234,7 @@ pub fn project_files(
     let mut inputs = vec![hash(&stim.manifest_path)?, hash(&stim.mesh_path)?];
     let mut rows = Vec::new();
     for f in fixation_files {
-        rows.extend(read_fixations_csv(f).map_err(ProjectError::Table)?);
+        rows.extend(read_fixations_csv(f).map_err(|e| ProjectError::Table(e.to_string()))?);
         inputs.push(hash(f)?);
     }
     let name = choose_stimulus(&rows, options.stimulus_name.as_deref(), &stim.mesh_stem())?;
