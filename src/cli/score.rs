@@ -24,7 +24,8 @@ use super::progress_bar::Bars;
 ///
 /// Every map is blurred over the surface at σ_b = 0, 0.01, …, 0.2 (normalized units: half the
 /// bounding-box diagonal = 1; Euclidean Gaussian, area-weighted, cut at 3σ; the full Gaussian,
-/// 10x faster on large meshes but not the same numbers, with --kernel gaussian; or heat
+/// which ranks the cut's exact zeros by distance and so gives other numbers, with --kernel
+/// gaussian; or heat
 /// diffusion along the surface with --kernel heat) and scored with
 /// AUC-Judd (ties split evenly), AUC-Borji (seeded), LCC, NSS, SIM, KL and the Gini index,
 /// beside a seeded random map blurred the same way ("chance") and, for fixation sets with

@@ -264,7 +264,7 @@ struct BitWriter {
 impl BitWriter {
     fn bits(&mut self, value: u32, n: u32) {
         for i in (0..n).rev() {
-            if self.bit_len % 8 == 0 {
+            if self.bit_len.is_multiple_of(8) {
                 self.bytes.push(0);
             }
             let b = ((value >> i) & 1) as u8;
@@ -291,7 +291,7 @@ impl BitWriter {
     /// rbsp_trailing_bits: a stop bit, then zeros to the byte boundary.
     fn trailing_bits(&mut self) {
         self.bits(1, 1);
-        while self.bit_len % 8 != 0 {
+        while !self.bit_len.is_multiple_of(8) {
             self.bits(0, 1);
         }
     }

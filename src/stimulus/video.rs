@@ -196,7 +196,7 @@ impl SegmentEncoder {
         let at = self.first_frame + self.frames;
         match self.keyframe_interval {
             0 => at == 0,
-            k => at % k == 0,
+            k => at.is_multiple_of(k),
         }
     }
 

@@ -1,0 +1,508 @@
+//! The scoring blur's sums, exactly, for many maps at once:
+//!
+//! den(v) = Σ_{u: ‖u−v‖ ≤ R} a_u e^{−‖u−v‖²/2σ²},  num_c(v) = Σ_{u: ‖u−v‖ ≤ R} a_u e^{−‖u−v‖²/2σ²} x_c(u)
+//!
+//! over every source u (a vertex with area) within the cutoff R, with no approximation of
+//! the kernel: the cutoff is what scores have always used (3σ), and a fast transform cannot
+//! reproduce its edge (a Gaussian cut at 3σ drops from 1.1% of its peak to zero there).
+//!
+//! Why it is fast: the work is a product of two small matrices per pair of (block of 16
+//! nearby targets, chunk of sources in one grid cell), K (16 × m, one exp per pair) times X
+//! (m × channels), so each exp serves every map and each source's row is read once per
+//! block rather than once per target. Targets go in Morton order of their cells, so a
+//! block is compact and the cells it must visit (those whose box comes within R of the
+//! block's box) are few. The pair arithmetic runs in f32, 16 lanes, with an exp made of
+//! adds and multiplies (`exp_nonpositive`, relative error under 2·10⁻⁷), and every chunk of
+//! at most 64 sources is added into f64 totals, so rounding stays near 10⁻⁶ of a sum however
+//! many sources it has (tests check 10⁻⁵ against the f64 definition).
+//!
+//! Deterministic: each target's sum runs over the cells and sources in a fixed order, and
+//! no step is fused or reordered, so AVX-512, AVX2 and plain SSE2 give the same bytes on any
+//! number of threads.
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// Targets per block: one AVX-512 register of f32.
+const BLOCK: usize = 16;
+/// Channels per pass over a chunk: their accumulators stay in registers.
+const GROUP: usize = 8;
+/// Sources summed in f32 before the f64 totals take them.
+const CHUNK: usize = 128;
+/// Cells per cutoff radius: small cells let a block skip most of what lies beyond its reach.
+const CELLS_PER_RADIUS: f64 = 6.0;
+/// The grid never has more cells than this per axis (a cell is at least the longest
+/// extent / this), so its index stays small at tiny σ.
+const MAX_CELLS_PER_AXIS: f64 = 128.0;
+
+/// Sources bucketed into cubes, as f32 coordinates relative to the grid's origin.
+struct SourceCells {
+    origin: DVec3,
+    cell: f64,
+    dims: [usize; 3],
+    /// `starts[c]..starts[c + 1]` are cell c's sources (linear index x + nx (y + ny z)).
+    starts: Vec<u32>,
+    xs: Vec<f32>,
+    ys: Vec<f32>,
+    zs: Vec<f32>,
+    areas: Vec<f32>,
+    /// `padded` values per source: 1 (the denominator), the k channels, zeros.
+    values: Vec<f32>,
+    padded: usize,
+    /// Each cell's sources' bounding box (lo, hi), tighter than the cell where the surface
+    /// crosses it as a sheet.
+    bounds: Vec<(DVec3, DVec3)>,
+}
+
+impl SourceCells {
+    fn coords(&self, p: DVec3) -> [usize; 3] {
+        let c = ((p - self.origin) / self.cell).floor();
+        [
+            (c.x.max(0.0) as usize).min(self.dims[0] - 1),
+            (c.y.max(0.0) as usize).min(self.dims[1] - 1),
+            (c.z.max(0.0) as usize).min(self.dims[2] - 1),
+        ]
+    }
+
+    fn linear(&self, [x, y, z]: [usize; 3]) -> usize {
+        x + self.dims[0] * (y + self.dims[1] * z)
+    }
+}
+
+/// For every vertex v: the denominator and the k channels' numerators (row-major), over the
+/// sources (vertices with area > 0) within `radius`, with K = e^{−d²/2σ²}. `rows` holds k
+/// values per vertex. Positions must be finite.
+pub(crate) fn cut_gaussian_sums(
+    positions: &[DVec3],
+    areas: &[f64],
+    rows: &[f64],
+    k: usize,
+    sigma: f64,
+    radius: f64,
+) -> (Vec<f64>, Vec<f64>) {
+    let n = positions.len();
+    if n == 0 {
+        return (Vec::new(), Vec::new());
+    }
+    let grid = source_cells(positions, areas, rows, k, radius);
+    let targets = morton_order(positions, &grid);
+    let inv = (1.0 / (2.0 * sigma * sigma)) as f32;
+    let r2 = (radius * radius) as f32;
+    let blocks: Vec<Vec<f64>> = targets
+        .par_chunks(BLOCK)
+        .map(|block| block_sums_dispatch(&grid, positions, block, inv, radius, r2))
+        .collect();
+    let mut den = vec![0.0; n];
+    let mut num = vec![0.0; n * k];
+    let p = grid.padded;
+    for (block, totals) in targets.chunks(BLOCK).zip(&blocks) {
+        for (t, &v) in block.iter().enumerate() {
+            den[v] = totals[t * p];
+            num[v * k..(v + 1) * k].copy_from_slice(&totals[t * p + 1..t * p + 1 + k]);
+        }
+    }
+    (den, num)
+}
+
+fn source_cells(
+    positions: &[DVec3],
+    areas: &[f64],
+    rows: &[f64],
+    k: usize,
+    radius: f64,
+) -> SourceCells {
+    let (lo, hi) = positions
+        .iter()
+        .fold((positions[0], positions[0]), |(lo, hi), p| {
+            (lo.min(*p), hi.max(*p))
+        });
+    let extent = (hi - lo).max_element();
+    let cell = (radius / CELLS_PER_RADIUS)
+        .max(extent / MAX_CELLS_PER_AXIS)
+        .max(f64::MIN_POSITIVE);
+    let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / cell).floor() as usize + 1);
+    let padded = (k + 1).div_ceil(GROUP) * GROUP;
+    let mut grid = SourceCells {
+        origin: lo,
+        cell,
+        dims,
+        starts: Vec::new(),
+        xs: Vec::new(),
+        ys: Vec::new(),
+        zs: Vec::new(),
+        areas: Vec::new(),
+        values: Vec::new(),
+        padded,
+        bounds: Vec::new(),
+    };
+    let mut keyed: Vec<(usize, usize)> = (0..positions.len())
+        .filter(|&u| areas[u] > 0.0)
+        .map(|u| (grid.linear(grid.coords(positions[u])), u))
+        .collect();
+    keyed.sort_unstable();
+    let cells = dims[0] * dims[1] * dims[2];
+    let mut starts = vec![0u32; cells + 1];
+    for &(c, _) in &keyed {
+        starts[c + 1] += 1;
+    }
+    for c in 0..cells {
+        starts[c + 1] += starts[c];
+    }
+    grid.starts = starts;
+    let empty = (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY));
+    grid.bounds = vec![empty; cells];
+    for &(c, u) in &keyed {
+        let q = positions[u] - lo;
+        grid.bounds[c] = (grid.bounds[c].0.min(q), grid.bounds[c].1.max(q));
+    }
+    grid.values = vec![0.0; keyed.len() * padded];
+    for (i, &(_, u)) in keyed.iter().enumerate() {
+        let q = positions[u] - lo;
+        grid.xs.push(q.x as f32);
+        grid.ys.push(q.y as f32);
+        grid.zs.push(q.z as f32);
+        grid.areas.push(areas[u] as f32);
+        let row = &mut grid.values[i * padded..(i + 1) * padded];
+        row[0] = 1.0;
+        for c in 0..k {
+            row[1 + c] = rows[u * k + c] as f32;
+        }
+    }
+    grid
+}
+
+/// Every vertex, ordered by the Morton code of its cell (then by index), so 16 consecutive
+/// vertices lie close together.
+fn morton_order(positions: &[DVec3], grid: &SourceCells) -> Vec<usize> {
+    let spread = |mut x: u64| {
+        // Bits of x (up to 21) moved to every third position.
+        x &= 0x1f_ffff;
+        x = (x | x << 32) & 0x1f_0000_0000_ffff;
+        x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+        x = (x | x << 2) & 0x1249_2492_4924_9249;
+        x
+    };
+    let mut keyed: Vec<(u64, usize)> = positions
+        .iter()
+        .enumerate()
+        .map(|(v, p)| {
+            let [x, y, z] = grid.coords(*p);
+            let code = spread(x as u64) | spread(y as u64) << 1 | spread(z as u64) << 2;
+            (code, v)
+        })
+        .collect();
+    keyed.sort_unstable();
+    keyed.into_iter().map(|(_, v)| v).collect()
+}
+
+fn block_sums_dispatch(
+    grid: &SourceCells,
+    positions: &[DVec3],
+    block: &[usize],
+    inv: f32,
+    radius: f64,
+    r2: f32,
+) -> Vec<f64> {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has AVX-512F, checked just above.
+            return unsafe { block_sums_avx512(grid, positions, block, inv, radius, r2) };
+        }
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            // SAFETY: the CPU has AVX2 and FMA, checked just above.
+            return unsafe { block_sums_avx2(grid, positions, block, inv, radius, r2) };
+        }
+    }
+    block_sums(grid, positions, block, inv, radius, r2)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn block_sums_avx512(
+    grid: &SourceCells,
+    positions: &[DVec3],
+    block: &[usize],
+    inv: f32,
+    radius: f64,
+    r2: f32,
+) -> Vec<f64> {
+    block_sums(grid, positions, block, inv, radius, r2)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn block_sums_avx2(
+    grid: &SourceCells,
+    positions: &[DVec3],
+    block: &[usize],
+    inv: f32,
+    radius: f64,
+    r2: f32,
+) -> Vec<f64> {
+    block_sums(grid, positions, block, inv, radius, r2)
+}
+
+/// One block's totals: `padded` values per target (denominator first), over every cell
+/// whose box comes within `radius` of the block's box.
+#[inline(always)]
+fn block_sums(
+    grid: &SourceCells,
+    positions: &[DVec3],
+    block: &[usize],
+    inv: f32,
+    radius: f64,
+    r2: f32,
+) -> Vec<f64> {
+    let p = grid.padded;
+    let mut totals = vec![0.0f64; BLOCK * p];
+    // Lanes past the block's end repeat its last target; their totals are never read.
+    let at = |t: usize| positions[block[t.min(block.len() - 1)]] - grid.origin;
+    let mut tx = [0.0f32; BLOCK];
+    let mut ty = [0.0f32; BLOCK];
+    let mut tz = [0.0f32; BLOCK];
+    let (mut lo, mut hi) = (at(0), at(0));
+    for t in 0..BLOCK {
+        let q = at(t);
+        (tx[t], ty[t], tz[t]) = (q.x as f32, q.y as f32, q.z as f32);
+        (lo, hi) = (lo.min(q), hi.max(q));
+    }
+    let first = grid.coords(grid.origin + lo - DVec3::splat(radius));
+    let last = grid.coords(grid.origin + hi + DVec3::splat(radius));
+    let mut pending = Pending {
+        weights: [[0.0; BLOCK]; CHUNK],
+        sources: [0; CHUNK],
+        len: 0,
+    };
+    for z in first[2]..=last[2] {
+        for y in first[1]..=last[1] {
+            for x in first[0]..=last[0] {
+                let c = grid.linear([x, y, z]);
+                let (s, e) = (grid.starts[c] as usize, grid.starts[c + 1] as usize);
+                if s == e || box_gap2(grid.bounds[c], lo, hi) > radius * radius {
+                    continue;
+                }
+                let mut u = s;
+                while u < e {
+                    let take = (e - u).min(CHUNK - pending.len);
+                    let slots = pending.len..pending.len + take;
+                    for (j, w) in pending.weights[slots.clone()].iter_mut().enumerate() {
+                        let v = u + j;
+                        let (sx, sy, sz, a) = (grid.xs[v], grid.ys[v], grid.zs[v], grid.areas[v]);
+                        for t in 0..BLOCK {
+                            let (dx, dy, dz) = (tx[t] - sx, ty[t] - sy, tz[t] - sz);
+                            let d2 = dx.mul_add(dx, dy.mul_add(dy, dz * dz));
+                            let kernel = a * exp_of_nonpositive(-d2 * inv);
+                            w[t] = if d2 <= r2 { kernel } else { 0.0 };
+                        }
+                    }
+                    for (j, slot) in pending.sources[slots].iter_mut().enumerate() {
+                        *slot = (u + j) as u32;
+                    }
+                    pending.len += take;
+                    u += take;
+                    if pending.len == CHUNK {
+                        pending.flush(grid, &mut totals);
+                    }
+                }
+            }
+        }
+    }
+    pending.flush(grid, &mut totals);
+    totals
+}
+
+/// e^x for x ≤ 0 (x ≥ −87 is kept exact to 2·10⁻⁷; below, e^−87): 2^n · e^r with
+/// |r| ≤ ln2/2 and a degree-6 polynomial, in fused multiply-adds (exactly rounded wherever
+/// they run, so every instruction set gives the same bits).
+#[inline(always)]
+fn exp_of_nonpositive(x: f32) -> f32 {
+    const MAGIC: f32 = 12_582_912.0; // 1.5 · 2^23: adding it rounds to an integer
+    let x = x.max(-87.0);
+    let t = x.mul_add(std::f32::consts::LOG2_E, MAGIC);
+    let n_bits = t.to_bits() as i32 - MAGIC.to_bits() as i32;
+    let n = t - MAGIC;
+    let r = (-n).mul_add(1.428_606_8e-6, (-n).mul_add(0.693_145_75, x));
+    let mut p: f32 = 1.0 / 720.0;
+    for c in [1.0 / 120.0, 1.0 / 24.0, 1.0 / 6.0, 0.5, 1.0, 1.0] {
+        p = p.mul_add(r, c);
+    }
+    f32::from_bits(((n_bits + 127) << 23) as u32) * p
+}
+
+/// Sources with their 16 kernel weights, waiting to be multiplied by their values.
+struct Pending {
+    weights: [[f32; BLOCK]; CHUNK],
+    sources: [u32; CHUNK],
+    len: usize,
+}
+
+impl Pending {
+    /// Adds the pending sources' weighted values to the f64 totals and empties the buffer.
+    #[inline(always)]
+    fn flush(&mut self, grid: &SourceCells, totals: &mut [f64]) {
+        let p = grid.padded;
+        let (weights, sources) = (&self.weights[..self.len], &self.sources[..self.len]);
+        for g in (0..p).step_by(GROUP) {
+            let acc = group_sums(weights, sources, &grid.values, p, g);
+            for c in 0..GROUP {
+                for t in 0..BLOCK {
+                    totals[t * p + g + c] += acc[c][t] as f64;
+                }
+            }
+        }
+        self.len = 0;
+    }
+}
+
+/// Σ_j w_j · x_j[g + c] for the group's channels c, lane by lane: each term a multiply, then
+/// an add (no fused step), in source order, so every instruction set rounds alike.
+#[inline(always)]
+fn group_sums(
+    weights: &[[f32; BLOCK]],
+    sources: &[u32],
+    values: &[f32],
+    p: usize,
+    g: usize,
+) -> [[f32; BLOCK]; GROUP] {
+    #[cfg(target_arch = "x86_64")]
+    {
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has AVX-512F, checked just above.
+            return unsafe { group_sums_avx512(weights, sources, values, p, g) };
+        }
+    }
+    let mut acc = [[0.0f32; BLOCK]; GROUP];
+    for (w, &u) in weights.iter().zip(sources) {
+        let row = &values[u as usize * p..];
+        for (lanes, &x) in acc.iter_mut().zip(&row[g..g + GROUP]) {
+            for t in 0..BLOCK {
+                lanes[t] = w[t].mul_add(x, lanes[t]);
+            }
+        }
+    }
+    acc
+}
+
+/// [`group_sums`] with the eight accumulators held in AVX-512 registers.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+fn group_sums_avx512(
+    weights: &[[f32; BLOCK]],
+    sources: &[u32],
+    values: &[f32],
+    p: usize,
+    g: usize,
+) -> [[f32; BLOCK]; GROUP] {
+    use std::arch::x86_64::*;
+    let mut acc = [_mm512_setzero_ps(); GROUP];
+    for (w, &u) in weights.iter().zip(sources) {
+        let row = &values[u as usize * p..];
+        // SAFETY: `w` holds exactly 16 f32, what one unaligned 512-bit load reads.
+        let lanes = unsafe { _mm512_loadu_ps(w.as_ptr()) };
+        let x = &row[g..g + GROUP];
+        for c in 0..GROUP {
+            acc[c] = _mm512_fmadd_ps(lanes, _mm512_set1_ps(x[c]), acc[c]);
+        }
+    }
+    let mut out = [[0.0f32; BLOCK]; GROUP];
+    for c in 0..GROUP {
+        // SAFETY: out[c] holds exactly 16 f32, what one unaligned 512-bit store writes.
+        unsafe { _mm512_storeu_ps(out[c].as_mut_ptr(), acc[c]) };
+    }
+    out
+}
+
+/// Squared distance between two boxes (lo, hi).
+fn box_gap2((a_lo, a_hi): (DVec3, DVec3), b_lo: DVec3, b_hi: DVec3) -> f64 {
+    let gap = (a_lo - b_hi).max(b_lo - a_hi).max(DVec3::ZERO);
+    gap.length_squared()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::test_meshes::icosphere;
+    use crate::mesh::vertex_areas::vertex_areas;
+
+    fn reference(
+        positions: &[DVec3],
+        areas: &[f64],
+        rows: &[f64],
+        k: usize,
+        sigma: f64,
+        radius: f64,
+    ) -> (Vec<f64>, Vec<f64>) {
+        let n = positions.len();
+        let mut den = vec![0.0; n];
+        let mut num = vec![0.0; n * k];
+        for v in 0..n {
+            for u in 0..n {
+                let d2 = positions[u].distance_squared(positions[v]);
+                if areas[u] <= 0.0 || d2 > radius * radius {
+                    continue;
+                }
+                let w = areas[u] * (-d2 / (2.0 * sigma * sigma)).exp();
+                den[v] += w;
+                for c in 0..k {
+                    num[v * k + c] += w * rows[u * k + c];
+                }
+            }
+        }
+        (den, num)
+    }
+
+    #[test]
+    fn sums_match_the_f64_definition() {
+        let mesh = icosphere(1.0, 3);
+        let n = mesh.positions.len();
+        let mut areas = vertex_areas(&mesh);
+        areas[5] = 0.0; // a vertex without area is a target, never a source
+        let k = 11; // two channel groups, the second partly padding
+        let rows: Vec<f64> = (0..n * k)
+            .map(|i| ((i * 7919) % 1000) as f64 / 1000.0 - 0.3)
+            .collect();
+        for sigma in [0.02, 0.1, 0.3, 1.0] {
+            let radius = 3.0 * sigma;
+            let (den, num) = cut_gaussian_sums(&mesh.positions, &areas, &rows, k, sigma, radius);
+            let (want_den, want_num) = reference(&mesh.positions, &areas, &rows, k, sigma, radius);
+            for v in 0..n {
+                let scale = want_den[v].max(1e-300);
+                assert!(
+                    (den[v] - want_den[v]).abs() <= 1e-5 * scale,
+                    "σ {sigma} vertex {v}: {} vs {}",
+                    den[v],
+                    want_den[v]
+                );
+                for c in 0..k {
+                    let (got, want) = (num[v * k + c], want_num[v * k + c]);
+                    assert!(
+                        (got - want).abs() <= 1e-5 * scale,
+                        "σ {sigma} vertex {v} channel {c}: {got} vs {want}"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn every_instruction_set_gives_the_same_bytes() {
+        let mesh = icosphere(1.0, 2);
+        let areas = vertex_areas(&mesh);
+        let rows: Vec<f64> = (0..mesh.positions.len() * 3)
+            .map(|i| (i % 17) as f64)
+            .collect();
+        let grid = source_cells(&mesh.positions, &areas, &rows, 3, 0.6);
+        let targets = morton_order(&mesh.positions, &grid);
+        for block in targets.chunks(BLOCK) {
+            let plain = block_sums(&grid, &mesh.positions, block, 12.5, 0.6, 0.36);
+            let fast = block_sums_dispatch(&grid, &mesh.positions, block, 12.5, 0.6, 0.36);
+            assert_eq!(
+                plain.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                fast.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
+            );
+        }
+    }
+}
