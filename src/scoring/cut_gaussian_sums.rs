@@ -374,6 +374,18 @@ fn group_sums(
             return unsafe { group_sums_avx512(weights, sources, values, p, g) };
         }
     }
+    group_sums_plain(weights, sources, values, p, g)
+}
+
+/// [`group_sums`] in portable code (`mul_add` is exactly rounded everywhere).
+#[inline(always)]
+fn group_sums_plain(
+    weights: &[[f32; BLOCK]],
+    sources: &[u32],
+    values: &[f32],
+    p: usize,
+    g: usize,
+) -> [[f32; BLOCK]; GROUP] {
     let mut acc = [[0.0f32; BLOCK]; GROUP];
     for (w, &u) in weights.iter().zip(sources) {
         let row = &values[u as usize * p..];
@@ -484,6 +496,26 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    #[test]
+    fn the_register_kernel_gives_the_portable_bytes() {
+        let weights: Vec<[f32; BLOCK]> = (0..CHUNK)
+            .map(|j| std::array::from_fn(|t| ((j * 31 + t * 7) % 101) as f32 / 37.0))
+            .collect();
+        let sources: Vec<u32> = (0..CHUNK as u32).map(|j| (j * 5) % 200).collect();
+        let p = 2 * GROUP;
+        let values: Vec<f32> = (0..200 * p)
+            .map(|i| ((i * 7919) % 1000) as f32 / 300.0 - 1.0)
+            .collect();
+        for g in [0, GROUP] {
+            let plain = group_sums_plain(&weights, &sources, &values, p, g);
+            let fast = group_sums(&weights, &sources, &values, p, g);
+            assert_eq!(
+                plain.map(|a| a.map(f32::to_bits)),
+                fast.map(|a| a.map(f32::to_bits))
+            );
         }
     }
 
