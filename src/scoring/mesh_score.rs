@@ -558,6 +558,46 @@ mod tests {
         assert!(human_splits(1, 10, 1).is_empty());
     }
 
+    /// The truth build keeps only the human rows and scores with one chance map: they must not
+    /// depend on how many there are.
+    #[test]
+    fn human_rows_do_not_depend_on_the_chance_band() {
+        use crate::progress::Silent;
+        use crate::truth::{Fixation, FixationTruth};
+        let mesh = crate::mesh::test_meshes::icosphere(1.0, 3);
+        let n = mesh.positions.len();
+        let subjects: Vec<String> = (0..6).map(|s| format!("s{s}")).collect();
+        let fixations: Vec<Fixation> = (0..60)
+            .map(|i| Fixation {
+                subject: subjects[i % 6].clone(),
+                vertex: (i * 37) % n,
+            })
+            .collect();
+        let truth = GroundTruth::Fixations(FixationTruth {
+            rows: fixations.len(),
+            fixations,
+            subjects,
+            rows_not_on_mesh: Default::default(),
+        });
+        let human_rows = |chance_maps: usize| {
+            let params = ScoreParams {
+                chance_maps,
+                blur_sigmas: vec![0.0, 0.05, 0.2],
+                ..ScoreParams::default()
+            };
+            let score = score_mesh(&mesh, &truth, &[], &params, None, &Silent).unwrap();
+            score
+                .rows
+                .into_iter()
+                .filter(|r| r.method == HUMAN)
+                .map(|r| (r.metric, r.blur.to_bits(), r.value.to_bits()))
+                .collect::<Vec<_>>()
+        };
+        let one = human_rows(1);
+        assert_eq!(one.len(), 9);
+        assert_eq!(one, human_rows(20));
+    }
+
     #[test]
     fn quantiles_interpolate_between_order_statistics() {
         let v: Vec<f64> = (1..=20).rev().map(f64::from).collect();
