@@ -24,7 +24,7 @@ fuzz_target!(|data: &[u8]| {
             write_projected_csv(&mut buf, &rows).unwrap();
             assert_eq!(parse_projected_csv(&buf, "p").unwrap().len(), rows.len());
         }
-        Err(e) => assert!(e.starts_with("p:")),
+        Err(e) => assert!(e.to_string().starts_with("p:")),
     }
     let _ = parse_targets_csv(data, "t");
     if let Ok(v) = parse_marks(&String::from_utf8_lossy(data), "m", 1000) {

@@ -185,7 +185,10 @@ fn viewing(
     settings: &[String],
 ) -> Result<Viewing, String> {
     let (protocol, _, _) = Protocol::load_or_builtin(protocol).map_err(|e| e.to_string())?;
-    let model = model.map(GazeModel::load).transpose()?;
+    let model = model
+        .map(GazeModel::load)
+        .transpose()
+        .map_err(|e| e.to_string())?;
     let rarity = RarityParams::default().with_settings(settings)?;
     Ok(Viewing {
         protocol,
@@ -462,6 +465,7 @@ fn score(
                 Some(&seen),
                 progress_of(progress),
             )
+            .map_err(|e| e.to_string())
         })
         .map_err(fail)?;
     let rows = result

@@ -139,7 +139,7 @@ pub fn project(
             write_projection(out, &run).map_err(|e| format!("{e:#}"))?;
         }
         let mut csv = Vec::new();
-        write_projected_csv(&mut csv, &run.rows)?;
+        write_projected_csv(&mut csv, &run.rows).map_err(|e| e.to_string())?;
         let csv = String::from_utf8(csv).map_err(|e| e.to_string())?;
         let sidecar = serde_json::to_string(&run.sidecar).map_err(|e| e.to_string())?;
         Ok::<_, String>((csv, sidecar))
@@ -249,7 +249,7 @@ pub fn build_truth(
             write_truth(out, &stim, &r).map_err(|e| format!("{e:#}"))?;
         }
         let mut csv = Vec::new();
-        write_projected_csv(&mut csv, &r.rows)?;
+        write_projected_csv(&mut csv, &r.rows).map_err(|e| e.to_string())?;
         Ok::<_, String>(Truth {
             fixations_csv: String::from_utf8(csv).map_err(|e| e.to_string())?,
             summary_json: serde_json::to_string(&r.sidecar).map_err(|e| e.to_string())?,
@@ -406,7 +406,8 @@ pub fn view_html(
                 meshgaze::projection::table::parse_projected_csv(
                     text.as_bytes(),
                     &format!("fixation table {}", i + 1),
-                )?,
+                )
+                .map_err(|e| e.to_string())?,
             );
         }
         let stim = stimulus

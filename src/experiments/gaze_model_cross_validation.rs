@@ -333,11 +333,17 @@ pub fn cross_validate(
     progress.start("held-out folds", (folds.len() + meshes.len()) as u64);
     let features: Vec<FeatureMatrix> = meshes
         .par_iter()
-        .map(|m| point_features(&SurfacePoints::of_mesh(&m.mesh), protocol))
+        .map(|m| {
+            point_features(&SurfacePoints::of_mesh(&m.mesh), protocol).map_err(|e| e.to_string())
+        })
         .collect::<Result<_, _>>()?;
     let seen: Vec<Vec<bool>> = meshes
         .iter()
-        .map(|m| hold_view_exposure(&m.mesh, protocol).map(|e| e.seen()))
+        .map(|m| {
+            hold_view_exposure(&m.mesh, protocol)
+                .map(|e| e.seen())
+                .map_err(|e| e.to_string())
+        })
         .collect::<Result<_, _>>()?;
     let predictions: Vec<Vec<(usize, Vec<f64>)>> = folds
         .par_iter()
@@ -354,7 +360,8 @@ pub fn cross_validate(
                     .filter(|n| feature_group(n) == *without)
                     .collect()
             };
-            let model = train_model_without(&training, options, &protocol.name, &dropped)?;
+            let model = train_model_without(&training, options, &protocol.name, &dropped)
+                .map_err(|e| e.to_string())?;
             let out = meshes
                 .iter()
                 .enumerate()

@@ -6,6 +6,7 @@
 //! as a split. This one is small, has no randomness at all (every row and feature is used),
 //! and gives the same bytes on any number of threads: each feature's histogram is summed in
 //! row order, and ties between splits go to the lower feature, then the lower bin.
+use crate::gaze_model::TreesError;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -116,21 +117,21 @@ pub fn train(
     labels: &[bool],
     weights: &[f64],
     params: &BoostParams,
-) -> Result<BoostedTrees, String> {
+) -> Result<BoostedTrees, TreesError> {
     let n = labels.len();
     if n == 0 || columns.iter().any(|c| c.len() != n) || weights.len() != n {
-        return Err("the feature columns, labels and weights must have one entry per row".into());
+        return Err(TreesError::Lengths);
     }
     if params.bins < 2 || params.bins > 255 {
-        return Err(format!("bins must be 2..=255, not {}", params.bins));
+        return Err(TreesError::Bins(params.bins));
     }
     if columns.iter().flatten().any(|v| !v.is_finite()) {
-        return Err("a feature value is not finite".into());
+        return Err(TreesError::NotFinite);
     }
     let positive: f64 = (0..n).filter(|&i| labels[i]).map(|i| weights[i]).sum();
     let total: f64 = weights.iter().sum();
     if positive <= 0.0 || positive >= total {
-        return Err("the labels need both positives and negatives".into());
+        return Err(TreesError::OneClass);
     }
     let thresholds: Vec<Vec<f64>> = columns
         .iter()

@@ -1,6 +1,7 @@
 //! The gaze model's per-point features. None needs human input or connectivity: they come
 //! from positions, normals and the protocol (its up axis, its first view as "front", its
 //! hold views), so point-only objects can be training data and any mesh can be predicted.
+use crate::gaze_model::FeatureError;
 use glam::DVec3;
 
 use super::local_shape::local_shape;
@@ -104,7 +105,7 @@ pub fn up_and_front(protocol: &Protocol) -> (DVec3, DVec3) {
 pub fn point_features(
     points: &SurfacePoints,
     protocol: &Protocol,
-) -> Result<FeatureMatrix, String> {
+) -> Result<FeatureMatrix, FeatureError> {
     point_features_timed(points, protocol, &mut |_, _| {})
 }
 
@@ -114,10 +115,10 @@ pub fn point_features_timed(
     points: &SurfacePoints,
     protocol: &Protocol,
     spent: &mut dyn FnMut(&'static str, f64),
-) -> Result<FeatureMatrix, String> {
-    let (center, radius) = bounds(points).ok_or("no points")?;
+) -> Result<FeatureMatrix, FeatureError> {
+    let (center, radius) = bounds(points).ok_or(FeatureError::NoPoints)?;
     if radius <= 0.0 || !radius.is_finite() {
-        return Err("the points have no extent".into());
+        return Err(FeatureError::NoExtent);
     }
     let n = points.len();
     let clock = std::time::Instant::now();

@@ -6,12 +6,15 @@
 //! files, 44 objects, 29 of them with no mesh), so every feature is computed from points
 //! and normals alone; a mesh is predicted from its vertices and vertex normals.
 pub mod boosted_trees;
+mod error;
 
 pub mod features;
 pub(crate) mod local_shape;
 pub(crate) mod shape_contrast;
 pub mod surface_points;
 pub(crate) mod view_visibility;
+
+pub use error::{FeatureError, GazeModelError, TreesError};
 
 use std::path::Path;
 
@@ -156,17 +159,23 @@ pub fn training_object(
     path: &Path,
     dataset: &str,
     protocol: &Protocol,
-) -> Result<TrainingObject, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    let points = read_gaze_points(path).map_err(|e| e.to_string())?;
+) -> Result<TrainingObject, GazeModelError> {
+    let bytes = std::fs::read(path).map_err(|error| GazeModelError::Io {
+        path: path.to_path_buf(),
+        error,
+    })?;
+    let points = read_gaze_points(path).map_err(|e| GazeModelError::Points(e.to_string()))?;
     let Some(labels) = points.flag else {
-        return Err(format!(
+        return Err(GazeModelError::Invalid(format!(
             "{}: no flag column (8th), so nothing to learn from",
             path.display()
-        ));
+        )));
     };
     let features =
-        point_features(&points.points, protocol).map_err(|e| format!("{}: {e}", path.display()))?;
+        point_features(&points.points, protocol).map_err(|error| GazeModelError::Features {
+            what: path.display().to_string(),
+            error,
+        })?;
     Ok(TrainingObject {
         name: object_name(path),
         dataset: dataset.to_string(),
@@ -188,25 +197,28 @@ pub fn training_object_from_map(
     values: &[f64],
     top_fraction: f64,
     protocol: &Protocol,
-) -> Result<TrainingObject, String> {
+) -> Result<TrainingObject, GazeModelError> {
     if values.len() != mesh.positions.len() {
-        return Err(format!(
+        return Err(GazeModelError::Invalid(format!(
             "{name}: {} values for {} vertices",
             values.len(),
             mesh.positions.len()
-        ));
+        )));
     }
     let points = SurfacePoints::of_mesh(mesh);
-    let features = point_features(&points, protocol).map_err(|e| format!("{name}: {e}"))?;
+    let features = point_features(&points, protocol).map_err(|error| GazeModelError::Features {
+        what: name.to_string(),
+        error,
+    })?;
     let mut sorted: Vec<f64> = values.to_vec();
     sorted.sort_by(|a, b| b.total_cmp(a));
     let k = ((top_fraction * values.len() as f64).round() as usize).clamp(1, values.len());
     let threshold = sorted[k - 1];
     let labels: Vec<bool> = values.iter().map(|&v| v > 0.0 && v >= threshold).collect();
     if !labels.iter().any(|&b| b) {
-        return Err(format!(
+        return Err(GazeModelError::Invalid(format!(
             "{name}: no vertex has a positive value to learn from"
-        ));
+        )));
     }
     Ok(TrainingObject {
         name: name.to_string(),
@@ -232,7 +244,7 @@ pub fn train_model(
     objects: &[&TrainingObject],
     options: &TrainOptions,
     protocol_name: &str,
-) -> Result<GazeModel, String> {
+) -> Result<GazeModel, GazeModelError> {
     train_model_without(objects, options, protocol_name, &[])
 }
 
@@ -243,10 +255,12 @@ pub fn train_model_without(
     options: &TrainOptions,
     protocol_name: &str,
     dropped: &[String],
-) -> Result<GazeModel, String> {
+) -> Result<GazeModel, GazeModelError> {
     let names = feature_names();
     if let Some(unknown) = dropped.iter().find(|d| !names.contains(d)) {
-        return Err(format!("no feature named `{unknown}` to leave out"));
+        return Err(GazeModelError::Invalid(format!(
+            "no feature named `{unknown}` to leave out"
+        )));
     }
     let mut columns: Vec<Vec<f64>> = vec![Vec::new(); names.len()];
     let mut labels = Vec::new();
@@ -254,7 +268,10 @@ pub fn train_model_without(
     let mut row_dataset = Vec::new();
     for object in objects {
         if object.features.names != names {
-            return Err(format!("{}: features of another version", object.name));
+            return Err(GazeModelError::Invalid(format!(
+                "{}: features of another version",
+                object.name
+            )));
         }
         let rows = sample_rows(object, options);
         for (f, column) in columns.iter_mut().enumerate() {
@@ -308,7 +325,7 @@ pub fn train_model_without(
 fn balance_datasets(
     records: &[ObjectRecord],
     options: &TrainOptions,
-) -> Result<Vec<DatasetRecord>, String> {
+) -> Result<Vec<DatasetRecord>, GazeModelError> {
     let mut out: Vec<DatasetRecord> = Vec::new();
     for r in records {
         match out.iter_mut().find(|d| d.name == r.dataset) {
@@ -327,9 +344,9 @@ fn balance_datasets(
     }
     for (name, w) in &options.dataset_weights {
         if !(w.is_finite() && *w > 0.0) {
-            return Err(format!(
+            return Err(GazeModelError::Invalid(format!(
                 "dataset `{name}`: weight {w} is not a positive number"
-            ));
+            )));
         }
     }
     let all_rows: usize = out.iter().map(|d| d.rows).sum();
@@ -362,29 +379,31 @@ fn sample_rows(object: &TrainingObject, options: &TrainOptions) -> Vec<usize> {
 
 impl GazeModel {
     /// Reads a model file, refusing one whose format or features this build does not know.
-    pub fn from_json(text: &str, name: &str) -> Result<GazeModel, String> {
-        let model: GazeModel =
-            serde_json::from_str(text).map_err(|e| format!("{name}: not a gaze model: {e}"))?;
+    pub fn from_json(text: &str, name: &str) -> Result<GazeModel, GazeModelError> {
+        let model: GazeModel = serde_json::from_str(text)
+            .map_err(|e| GazeModelError::Model(format!("{name}: not a gaze model: {e}")))?;
         if model.format != MODEL_FORMAT {
-            return Err(format!(
+            return Err(GazeModelError::Model(format!(
                 "{name}: format `{}`, expected `{MODEL_FORMAT}`",
                 model.format
-            ));
+            )));
         }
         if model.features != feature_names() {
-            return Err(format!(
+            return Err(GazeModelError::Model(format!(
                 "{name}: trained on features [{}], this build computes [{}]; retrain it with `meshgaze train`",
                 model.features.join(", "),
                 feature_names().join(", ")
-            ));
+            )));
         }
         Ok(model)
     }
 
     /// Reads a model file written by `meshgaze train`.
-    pub fn load(path: &Path) -> Result<GazeModel, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    pub fn load(path: &Path) -> Result<GazeModel, GazeModelError> {
+        let text = std::fs::read_to_string(path).map_err(|error| GazeModelError::Io {
+            path: path.to_path_buf(),
+            error,
+        })?;
         GazeModel::from_json(&text, &path.display().to_string())
     }
 
@@ -399,7 +418,11 @@ impl GazeModel {
     }
 
     /// Probability of being among the most looked-at points, per point.
-    pub fn predict(&self, points: &SurfacePoints, protocol: &Protocol) -> Result<Vec<f64>, String> {
+    pub fn predict(
+        &self,
+        points: &SurfacePoints,
+        protocol: &Protocol,
+    ) -> Result<Vec<f64>, GazeModelError> {
         let features = point_features(points, protocol)?;
         Ok(self.predict_features(&features))
     }

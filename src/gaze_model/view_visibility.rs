@@ -6,7 +6,7 @@ use glam::DVec3;
 
 use super::surface_points::SurfacePoints;
 use crate::protocol::Protocol;
-use crate::stimulus::camera::{CameraPlan, Phase};
+use crate::stimulus::camera::{CameraError, CameraPlan, Phase};
 
 /// Per point, what the protocol's hold views show of it.
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -31,9 +31,12 @@ const OPENNESS_DIRECTIONS: usize = 32;
 const OPENNESS_GRID: usize = 128;
 
 /// What the protocol's hold views and `OPENNESS_DIRECTIONS` orthographic views see.
-pub fn view_exposure(points: &SurfacePoints, protocol: &Protocol) -> Result<ViewExposure, String> {
+pub fn view_exposure(
+    points: &SurfacePoints,
+    protocol: &Protocol,
+) -> Result<ViewExposure, CameraError> {
     let n = points.len();
-    let (center, radius) = bounds(points).ok_or("no points to view")?;
+    let (center, radius) = bounds(points).ok_or(CameraError::NoPoints)?;
     let plan = CameraPlan::around(center, radius, protocol)?;
     let spacing = mean_spacing(points.len(), radius);
     let width = ((protocol.display.width_px as f64 * VIEW_SCALE).round() as usize).max(16);

@@ -308,7 +308,7 @@ pub fn project_screen_fixations(
     let rows: Vec<ProjectedRow> = projected.iter().map(ProjectedRow::from).collect();
     let round_trip = match &options.targets {
         Some(t) => {
-            let targets = read_targets_csv(t).map_err(ProjectError::Table)?;
+            let targets = read_targets_csv(t).map_err(|e| ProjectError::Table(e.to_string()))?;
             Some(round_trip(&stim.mesh, &stim.plan, ppd, &targets, &rows))
         }
         None => None,

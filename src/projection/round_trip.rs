@@ -1,5 +1,6 @@
 //! How projected fixations compare with the true targets of virtual observers: the
 //! targets.csv rows `simulate` writes, and the round trip `project --targets` reports.
+use crate::projection::table::TableError;
 use serde::Serialize;
 
 use crate::mesh::Mesh;
@@ -37,19 +38,23 @@ pub struct TrueFixation {
 }
 
 /// targets.csv from a file.
-pub fn read_targets_csv(path: &std::path::Path) -> Result<Vec<TrueFixation>, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("{}: {e}", path.display()))?;
+pub fn read_targets_csv(path: &std::path::Path) -> Result<Vec<TrueFixation>, TableError> {
+    let bytes = std::fs::read(path).map_err(|e| TableError::Read {
+        name: path.display().to_string(),
+        error: crate::file_bytes::ReadError::Io(e),
+    })?;
     parse_targets_csv(&bytes, &path.display().to_string())
 }
 
 /// targets.csv from bytes; errors name the line.
-pub fn parse_targets_csv(bytes: &[u8], name: &str) -> Result<Vec<TrueFixation>, String> {
+pub fn parse_targets_csv(bytes: &[u8], name: &str) -> Result<Vec<TrueFixation>, TableError> {
     let mut r = csv::Reader::from_reader(bytes);
     r.deserialize()
         .map(|x| {
-            x.map_err(|e| {
-                let line = e.position().map_or(0, |p| p.line());
-                format!("{name}:{line}: {e}")
+            x.map_err(|e| TableError::Row {
+                name: name.to_string(),
+                line: e.position().map_or(0, |p| p.line()),
+                message: e.to_string(),
             })
         })
         .collect()

@@ -93,11 +93,37 @@ impl ProjectedRow {
     }
 }
 
+/// Why a projected.csv or targets.csv could not be read or written.
+#[derive(Debug, thiserror::Error)]
+pub enum TableError {
+    /// The file could not be read.
+    #[error("{name}: {error}")]
+    Read {
+        /// The file.
+        name: String,
+        /// The I/O or gzip error.
+        error: crate::file_bytes::ReadError,
+    },
+    /// A row (line 1: the header) is not a row of the table.
+    #[error("{name}:{line}: {message}")]
+    Row {
+        /// The file.
+        name: String,
+        /// 1-based line.
+        line: u64,
+        /// What is wrong with it (the column where known).
+        message: String,
+    },
+    /// Writing the table failed.
+    #[error("{0}")]
+    Write(#[from] csv::Error),
+}
+
 /// Writes projected.csv (the header alone when there are no rows).
-pub fn write_projected_csv<W: Write>(out: W, rows: &[ProjectedRow]) -> Result<(), String> {
+pub fn write_projected_csv<W: Write>(out: W, rows: &[ProjectedRow]) -> Result<(), TableError> {
     let mut w = csv::Writer::from_writer(out);
     for r in rows {
-        w.serialize(r).map_err(|e| e.to_string())?;
+        w.serialize(r)?;
     }
     if rows.is_empty() {
         w.write_record([
@@ -117,24 +143,31 @@ pub fn write_projected_csv<W: Write>(out: W, rows: &[ProjectedRow]) -> Result<()
             "z",
             "snap_px",
             "fate",
-        ])
-        .map_err(|e| e.to_string())?;
+        ])?;
     }
-    w.flush().map_err(|e| e.to_string())
+    w.flush().map_err(|e| TableError::Write(e.into()))
 }
 
 /// Reads a `projected.csv`, checking every fate name and that on-mesh rows have a vertex.
-pub fn read_projected_csv(path: &Path) -> Result<Vec<ProjectedRow>, String> {
+pub fn read_projected_csv(path: &Path) -> Result<Vec<ProjectedRow>, TableError> {
     let name = path.display().to_string();
-    let bytes = crate::file_bytes::read_maybe_gzipped(path).map_err(|e| format!("{name}: {e}"))?;
+    let bytes = crate::file_bytes::read_maybe_gzipped(path).map_err(|error| TableError::Read {
+        name: name.clone(),
+        error,
+    })?;
     parse_projected_csv(&bytes, &name)
 }
 
 /// [`read_projected_csv`] on bytes already in memory; `name` labels the errors.
-pub fn parse_projected_csv(bytes: &[u8], name: &str) -> Result<Vec<ProjectedRow>, String> {
+pub fn parse_projected_csv(bytes: &[u8], name: &str) -> Result<Vec<ProjectedRow>, TableError> {
     let bytes = bytes.strip_prefix(b"\xEF\xBB\xBF").unwrap_or(bytes);
     let mut r = csv::Reader::from_reader(bytes);
-    let headers = r.headers().map_err(|e| format!("{name}:1: {e}"))?.clone();
+    let at = |line: u64, message: String| TableError::Row {
+        name: name.to_string(),
+        line,
+        message,
+    };
+    let headers = r.headers().map_err(|e| at(1, e.to_string()))?.clone();
     let mut rows = Vec::new();
     for rec in r.deserialize::<ProjectedRow>() {
         let row = rec.map_err(|e| {
@@ -145,25 +178,25 @@ pub fn parse_projected_csv(bytes: &[u8], name: &str) -> Result<Vec<ProjectedRow>
                         .field()
                         .and_then(|i| headers.get(i as usize))
                         .unwrap_or("?");
-                    format!("{name}:{line}: column `{col}`: {}", err.kind())
+                    at(line, format!("column `{col}`: {}", err.kind()))
                 }
-                other => format!("{name}:{line}: {other:?}"),
+                other => at(line, format!("{other:?}")),
             }
         })?;
-        let line = rows.len() + 2;
+        let line = rows.len() as u64 + 2;
         match row.fate() {
             None => {
-                return Err(format!(
-                    "{name}:{line}: unknown fate `{}` (expected one of {})",
-                    row.fate,
-                    ProjectionFate::ALL.map(|f| f.name()).join(", ")
+                return Err(at(
+                    line,
+                    format!(
+                        "unknown fate `{}` (expected one of {})",
+                        row.fate,
+                        ProjectionFate::ALL.map(|f| f.name()).join(", ")
+                    ),
                 ))
             }
             Some(f) if f.on_mesh() && row.vertex.is_none() => {
-                return Err(format!(
-                    "{name}:{line}: a `{}` row needs a vertex",
-                    row.fate
-                ))
+                return Err(at(line, format!("a `{}` row needs a vertex", row.fate)))
             }
             _ => {}
         }

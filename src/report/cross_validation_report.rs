@@ -148,7 +148,7 @@ pub fn write_cv_figures(
     use super::ReportError;
     crate::file_bytes::create_output_dir(dir).map_err(ReportError::stage)?;
     for (m, (name, map)) in meshes.iter().zip(maps) {
-        let plan = CameraPlan::new(&m.mesh, protocol).map_err(ReportError::Stage)?;
+        let plan = CameraPlan::new(&m.mesh, protocol)?;
         let left = thumbnail(&render_map(&m.mesh, &plan, protocol, map, 0), 480);
         let right = thumbnail(&render_map(&m.mesh, &plan, protocol, &m.values, 0), 480);
         let mut both = image::RgbImage::new(left.width() + right.width(), left.height());

@@ -34,6 +34,12 @@ pub enum ReportError {
     /// its message names the file.
     #[error("{0}")]
     Stage(String),
+    /// No camera plan frames a mesh to draw.
+    #[error("{0}")]
+    Camera(#[from] crate::stimulus::camera::CameraError),
+    /// The chance band of the mean over meshes could not be formed.
+    #[error("{0}")]
+    Score(#[from] crate::scoring::ScoreError),
     /// Formatting the page text failed (writing into a `String` does not fail in practice).
     #[error("formatting the page failed")]
     Format(#[from] std::fmt::Error),

@@ -79,7 +79,7 @@ pub fn robustness_figure(mesh: &Mesh, result: &RobustnessResult) -> Result<RgbIm
     let figure_error = |e: String| ReportError::Chart(e);
     let protocol = Protocol::from_toml(&text, "hu2020.toml (400x400)")
         .map_err(|e| figure_error(e.to_string()))?;
-    let plan = CameraPlan::new(mesh, &protocol).map_err(figure_error)?;
+    let plan = CameraPlan::new(mesh, &protocol)?;
     let cols = 1 + result.corrupted.len() as u32;
     let mut fig = RgbImage::from_pixel(
         w * cols,

@@ -196,7 +196,7 @@ fn mean_section(
     }
     let band = if draws.len() == meshes.len() && !draws.is_empty() {
         let refs: Vec<&[(f64, Vec<f64>)]> = draws.iter().map(|d| d.as_slice()).collect();
-        chance_band_of_mean(&refs).map_err(ReportError::Invalid)?
+        chance_band_of_mean(&refs)?
     } else {
         Vec::new()
     };

@@ -85,7 +85,7 @@ pub fn view_page_from_files(files: &ViewFiles) -> Result<(String, String), Repor
     }
     let mut fixations: Vec<ProjectedRow> = Vec::new();
     for f in &fixation_files {
-        fixations.extend(read_projected_csv(f).map_err(ReportError::Stage)?);
+        fixations.extend(read_projected_csv(f).map_err(|e| ReportError::Stage(e.to_string()))?);
     }
     let stim = files
         .stimulus

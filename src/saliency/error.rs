@@ -11,6 +11,12 @@ pub enum SaliencyError {
     /// a model that does not fit the protocol).
     #[error("{0}")]
     Compute(String),
+    /// The hold views could not frame the mesh (the centre prior).
+    #[error("{0}")]
+    Camera(#[from] crate::stimulus::camera::CameraError),
+    /// The gaze model could not be applied.
+    #[error("{0}")]
+    GazeModel(#[from] crate::gaze_model::GazeModelError),
     /// A map file could not be used; the truth reader's message names its file, line and
     /// column.
     #[error("{0}")]

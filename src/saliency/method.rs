@@ -225,21 +225,23 @@ pub fn compute_saliency_viewed(
             method.name()
         )));
     }
-    compute_nonempty(method, mesh, sms, viewing, progress).map_err(SaliencyError::Compute)
+    compute_nonempty(method, mesh, sms, viewing, progress)
 }
 
-/// [`compute_saliency_viewed`] on a mesh with triangles; the methods' own errors are text.
+/// [`compute_saliency_viewed`] on a mesh with triangles; the classical methods' own errors
+/// are text (`SaliencyError::Compute`).
 fn compute_nonempty(
     method: Method,
     mesh: &Mesh,
     sms: &SmsParams,
     viewing: &Viewing,
     progress: &dyn Progress,
-) -> Result<MethodOutput, String> {
+) -> Result<MethodOutput, SaliencyError> {
     let t = Instant::now();
     let (values, report) = match method {
         Method::Sms => {
-            let r = sparse_metric_saliency(mesh, sms, SmsExtras::default(), progress)?;
+            let r = sparse_metric_saliency(mesh, sms, SmsExtras::default(), progress)
+                .map_err(SaliencyError::Compute)?;
             (r.vertex_saliency, serde_json::to_value(&r.report))
         }
         Method::Ms => {
@@ -256,28 +258,29 @@ fn compute_nonempty(
         Method::Si => {
             progress.start("SI (Song 2014)", 0);
             let params = SpectralParams::default();
-            let (v, r) = spectral_irregularity(mesh, &params)?;
+            let (v, r) = spectral_irregularity(mesh, &params).map_err(SaliencyError::Compute)?;
             progress.finish();
             (v, serde_json::to_value((&params, &r)))
         }
         Method::Sri => {
             progress.start("SRI (Leifman 2012)", 0);
             let params = &viewing.rarity.sri;
-            let (v, r) = surface_regions_of_interest(mesh, params)?;
+            let (v, r) =
+                surface_regions_of_interest(mesh, params).map_err(SaliencyError::Compute)?;
             progress.finish();
             (v, serde_json::to_value((params, &r)))
         }
         Method::Gr => {
             progress.start("GR (Wu 2013)", 0);
             let params = &viewing.rarity.gr;
-            let (v, r) = global_rarity_saliency(mesh, params)?;
+            let (v, r) = global_rarity_saliency(mesh, params).map_err(SaliencyError::Compute)?;
             progress.finish();
             (v, serde_json::to_value((params, &r)))
         }
         Method::Mr => {
             progress.start("MR (Tao 2015)", 0);
             let params = &viewing.rarity.mr;
-            let (v, r) = manifold_ranking_saliency(mesh, params)?;
+            let (v, r) = manifold_ranking_saliency(mesh, params).map_err(SaliencyError::Compute)?;
             progress.finish();
             (v, serde_json::to_value((params, &r)))
         }
@@ -312,7 +315,7 @@ fn compute_nonempty(
     };
     Ok(MethodOutput {
         values,
-        report: report.map_err(|e| e.to_string())?,
+        report: report.map_err(|e| SaliencyError::Compute(e.to_string()))?,
         seconds: t.elapsed().as_secs_f64(),
     })
 }

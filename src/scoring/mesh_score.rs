@@ -11,6 +11,7 @@ use crate::mesh::geometry::{BoundingBox, Normalization};
 use crate::mesh::vertex_areas::vertex_areas;
 use crate::mesh::Mesh;
 use crate::progress::Progress;
+use crate::scoring::error::ScoreError;
 use crate::scoring::ground_truth::GroundTruth;
 use crate::scoring::surface_blur::{BlurKernel, MeshBlur};
 use crate::scoring::{auc_borji, auc_judd, gini_index, kl_divergence, lcc, nss, sim};
@@ -134,7 +135,7 @@ pub struct MeshScore {
 /// Returns (σ_b, mean, low, high).
 pub fn chance_band_of_mean(
     meshes: &[&[(f64, Vec<f64>)]],
-) -> Result<Vec<(f64, f64, f64, f64)>, String> {
+) -> Result<Vec<(f64, f64, f64, f64)>, ScoreError> {
     let Some(first) = meshes.first() else {
         return Ok(Vec::new());
     };
@@ -142,13 +143,9 @@ pub fn chance_band_of_mean(
     for (b, (sigma, draws)) in first.iter().enumerate() {
         let mut sums = vec![0.0; draws.len()];
         for m in meshes {
-            let (s, d) = m
-                .get(b)
-                .ok_or("meshes were scored over different blur grids")?;
+            let (s, d) = m.get(b).ok_or(ScoreError::MismatchedBands)?;
             if s != sigma || d.len() != draws.len() {
-                return Err(
-                    "meshes were scored over different blur grids or chance map counts".into(),
-                );
+                return Err(ScoreError::MismatchedBands);
             }
             for (a, x) in sums.iter_mut().zip(d) {
                 *a += x;
@@ -236,11 +233,9 @@ pub fn human_splits(n: usize, random_splits: usize, seed: u64) -> Vec<(Vec<usize
 }
 
 /// σ_b from 0 to `max` in steps of `step` (rounded to 1e-9 so 0.07 prints as 0.07).
-pub fn blur_grid(max: f64, step: f64) -> Result<Vec<f64>, String> {
+pub fn blur_grid(max: f64, step: f64) -> Result<Vec<f64>, ScoreError> {
     if !(step > 0.0 && max >= 0.0 && max / step <= 10_000.0) {
-        return Err(
-            "--blur-step must be positive and --blur-max / --blur-step at most 10000".to_string(),
-        );
+        return Err(ScoreError::BlurGrid);
     }
     let k = (max / step + 1e-9).floor() as usize;
     Ok((0..=k)
@@ -449,12 +444,16 @@ pub fn score_mesh(
     params: &ScoreParams,
     seen: Option<&[bool]>,
     progress: &dyn Progress,
-) -> Result<MeshScore, String> {
+) -> Result<MeshScore, ScoreError> {
     if seen.is_some_and(|s| s.len() != mesh.positions.len()) {
-        return Err("the visibility flags must have one entry per vertex".to_string());
+        return Err(ScoreError::Invalid(
+            "the visibility flags must have one entry per vertex",
+        ));
     }
     if params.chance_maps == 0 {
-        return Err("the chance band needs at least one random map".to_string());
+        return Err(ScoreError::Invalid(
+            "the chance band needs at least one random map",
+        ));
     }
     let n = mesh.positions.len();
     let norm = Normalization::of_mesh(mesh, params.bounding_box);
@@ -563,7 +562,7 @@ mod tests {
     #[test]
     fn human_rows_do_not_depend_on_the_chance_band() {
         use crate::progress::Silent;
-        use crate::truth::{Fixation, FixationTruth};
+        use crate::scoring::ground_truth::{Fixation, FixationTruth};
         let mesh = crate::mesh::test_meshes::icosphere(1.0, 3);
         let n = mesh.positions.len();
         let subjects: Vec<String> = (0..6).map(|s| format!("s{s}")).collect();

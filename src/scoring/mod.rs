@@ -2,6 +2,7 @@
 pub mod auc;
 pub(crate) mod cut_gaussian_sums;
 pub mod dataset;
+pub(crate) mod error;
 pub mod gini;
 pub(crate) mod ground_truth;
 pub(crate) mod lattice_gauss_transform;
@@ -10,6 +11,7 @@ pub mod mesh_score;
 pub mod surface_blur;
 
 pub use auc::{auc_borji, auc_judd};
+pub use error::ScoreError;
 pub use gini::{gini_index, lorenz_curve};
 pub use map_agreement::{kl_divergence, lcc, nss, sim};
 

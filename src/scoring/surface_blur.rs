@@ -11,6 +11,7 @@ use rayon::prelude::*;
 
 use crate::mesh::Mesh;
 use crate::scoring::cut_gaussian_sums::cut_gaussian_sums;
+use crate::scoring::error::ScoreError;
 use crate::scoring::lattice_gauss_transform::{lattice_gauss_transform, lattice_work};
 
 use crate::mesh::vertex_areas::vertex_areas;
@@ -420,7 +421,7 @@ impl MeshBlur {
     }
 
     /// Every map blurred at `sigma` (σ = 0: copies).
-    pub fn blur(&self, maps: &[&[f64]], sigma: f64) -> Result<Vec<Vec<f64>>, String> {
+    pub fn blur(&self, maps: &[&[f64]], sigma: f64) -> Result<Vec<Vec<f64>>, ScoreError> {
         match self {
             MeshBlur::Gaussian(b) => Ok(b.blur(maps, sigma)),
             MeshBlur::Heat(b) => b.blur(maps, sigma),
@@ -434,7 +435,7 @@ pub fn blur_on_mesh(
     kernel: BlurKernel,
     maps: &[&[f64]],
     sigma: f64,
-) -> Result<Vec<Vec<f64>>, String> {
+) -> Result<Vec<Vec<f64>>, ScoreError> {
     MeshBlur::new(mesh, kernel).blur(maps, sigma)
 }
 
@@ -482,7 +483,7 @@ impl HeatBlur {
 
     /// Diffuses every map for time t = σ²/2; σ = 0 returns copies. Vertices without area
     /// (unreferenced) keep their values.
-    pub fn blur(&self, maps: &[&[f64]], sigma: f64) -> Result<Vec<Vec<f64>>, String> {
+    pub fn blur(&self, maps: &[&[f64]], sigma: f64) -> Result<Vec<Vec<f64>>, ScoreError> {
         if sigma <= 0.0 {
             return Ok(maps.iter().map(|m| m.to_vec()).collect());
         }
@@ -503,9 +504,13 @@ impl HeatBlur {
             triplets.push(Triplet::new(i, i, *d));
         }
         let a = SparseColMat::<usize, f64>::try_new_from_triplets(self.n, self.n, &triplets)
-            .map_err(|e| format!("cannot assemble the heat operator: {e:?}"))?;
+            .map_err(|e| {
+                ScoreError::HeatOperator(format!("cannot assemble the heat operator: {e:?}"))
+            })?;
         let llt = a.sp_cholesky(faer::Side::Lower).map_err(|e| {
-            format!("the heat operator is not positive definite (σ_b = {sigma}): {e:?}")
+            ScoreError::HeatOperator(format!(
+                "the heat operator is not positive definite (σ_b = {sigma}): {e:?}"
+            ))
         })?;
         let mut rhs = faer::Mat::<f64>::zeros(self.n, maps.len());
         for (c, m) in maps.iter().enumerate() {

@@ -178,10 +178,24 @@ fn perspective(fov_y: f64, aspect: f64, near: f64, far: f64) -> DMat4 {
     )
 }
 
+/// Why no camera plan frames an object.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum CameraError {
+    /// The mesh has no triangle to frame.
+    #[error("the mesh has no triangle")]
+    NoTriangle,
+    /// Every point of the object is at its centre (or a coordinate is not a number).
+    #[error("the mesh has no extent")]
+    NoExtent,
+    /// A point set to frame is empty.
+    #[error("no points to view")]
+    NoPoints,
+}
+
 impl CameraPlan {
     /// The plan of `mesh` under `protocol`; an error for a mesh without triangles.
-    pub fn new(mesh: &Mesh, protocol: &Protocol) -> Result<CameraPlan, String> {
-        let (lo, hi) = mesh.referenced_bounds().ok_or("the mesh has no triangle")?;
+    pub fn new(mesh: &Mesh, protocol: &Protocol) -> Result<CameraPlan, CameraError> {
+        let (lo, hi) = mesh.referenced_bounds().ok_or(CameraError::NoTriangle)?;
         let center = (lo + hi) * 0.5;
         let radius = mesh
             .triangles
@@ -194,9 +208,13 @@ impl CameraPlan {
 
     /// The plan for any object whose bounding-box centre and farthest point from it are
     /// known (a point cloud, say), framed exactly as a mesh with those bounds would be.
-    pub fn around(center: DVec3, radius: f64, protocol: &Protocol) -> Result<CameraPlan, String> {
+    pub fn around(
+        center: DVec3,
+        radius: f64,
+        protocol: &Protocol,
+    ) -> Result<CameraPlan, CameraError> {
         if radius.is_nan() || radius <= 0.0 {
-            return Err("the mesh has no extent".into());
+            return Err(CameraError::NoExtent);
         }
         let r = &protocol.rendering;
         let fov = r.field_of_view_deg.to_radians();

@@ -15,7 +15,7 @@ pub enum StimulusError {
     /// No camera plan fits this mesh under this protocol (an empty or degenerate mesh, a
     /// protocol whose views cannot frame it).
     #[error("{0}")]
-    Camera(String),
+    Camera(#[from] crate::stimulus::camera::CameraError),
     /// Rendering, encoding or writing the video or a frame image failed; the message names
     /// the file.
     #[error("{0}")]

@@ -4,7 +4,7 @@
 //! its closeness.
 use glam::DVec3;
 
-use super::camera::CameraPlan;
+use super::camera::{CameraError, CameraPlan};
 use super::raster::{Rasterizer, BACKGROUND_ID};
 use crate::mesh::Mesh;
 use crate::protocol::Protocol;
@@ -29,7 +29,10 @@ impl HoldViewExposure {
 }
 
 /// Renders the triangle-id buffer of every hold view at the protocol's display size.
-pub fn hold_view_exposure(mesh: &Mesh, protocol: &Protocol) -> Result<HoldViewExposure, String> {
+pub fn hold_view_exposure(
+    mesh: &Mesh,
+    protocol: &Protocol,
+) -> Result<HoldViewExposure, CameraError> {
     let plan = CameraPlan::new(mesh, protocol)?;
     let raster = Rasterizer::new(mesh);
     let n = mesh.positions.len();

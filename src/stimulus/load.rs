@@ -80,9 +80,12 @@ pub enum StimulusLoadError {
         /// `:1: unexpected header ...` or `: N frames, ...`.
         message: String,
     },
-    /// The protocol, mesh or camera stage refused (its text names the file).
+    /// The protocol or mesh stage refused (its text names the file).
     #[error("{0}")]
     Stage(String),
+    /// No camera plan frames the stimulus's mesh.
+    #[error("{0}")]
+    Camera(#[from] crate::stimulus::camera::CameraError),
 }
 
 impl StimulusLoadError {
@@ -254,7 +257,7 @@ pub fn load_stimulus(
         text(&v, &["timeline", "sha256"], mp)?,
         "timeline",
     )?;
-    let plan = CameraPlan::new(&mesh, &protocol).map_err(StimulusLoadError::Stage)?;
+    let plan = CameraPlan::new(&mesh, &protocol)?;
     let fps = protocol.video.fps;
     let timeline =
         std::fs::read_to_string(&timeline_path).map_err(|error| StimulusLoadError::Read {

@@ -29,9 +29,9 @@ pub enum TruthBuildError {
     /// column).
     #[error("{0}")]
     Table(String),
-    /// Blurring or scoring failed (the message says which parameter).
+    /// Blurring or scoring failed (the blur grid, the heat kernel).
     #[error("{0}")]
-    Stage(String),
+    Score(#[from] crate::scoring::ScoreError),
     /// A file could not be read, created or written.
     #[error("{action} {}: {cause}", path.display())]
     Io {
@@ -161,7 +161,7 @@ pub fn read_projections(stim: &LoadedStimulus, files: &[PathBuf]) -> Result<Proj
     for f in files {
         let dir = f.parent().unwrap_or(Path::new("."));
         check_projected_onto(stim, f, &dir.join("project.json"), &mut warnings)?;
-        let part = read_projected_csv(f).map_err(TruthBuildError::Table)?;
+        let part = read_projected_csv(f).map_err(|e| TruthBuildError::Table(e.to_string()))?;
         if let Some(bad) = part.iter().filter_map(|r| r.vertex).find(|&v| v >= n) {
             return Err(TruthBuildError::Invalid(format!(
                 "{}: vertex {bad} is out of range: the mesh has {n} vertices",
@@ -270,14 +270,14 @@ pub fn build_truth(
     }
     let normalized = Normalization::of_mesh(mesh, BoundingBox::Oriented).normalized_mesh(mesh);
     let density = blur_on_mesh(&normalized, params.kernel, &[&counts], params.blur)
-        .map_err(TruthBuildError::Stage)?
+        .map_err(TruthBuildError::Score)?
         .remove(0);
     let expected = stim.protocol.fixations.keep_longest;
     let subjects = subject_truths(&rows, expected, &mut warnings);
     let truth = GroundTruth::Fixations(fixation_truth.clone());
     let score_params = ScoreParams {
         blur_sigmas: blur_grid(params.blur_max, params.blur_step)
-            .map_err(TruthBuildError::Stage)?,
+            .map_err(TruthBuildError::Score)?,
         kernel: params.kernel,
         borji_splits: 10,
         // Only the human rows are kept, and they do not depend on the chance band: one random
@@ -286,7 +286,7 @@ pub fn build_truth(
         ..ScoreParams::default()
     };
     let score = score_mesh(mesh, &truth, &[], &score_params, None, progress)
-        .map_err(TruthBuildError::Stage)?;
+        .map_err(TruthBuildError::Score)?;
     let human: Vec<(f64, &'static str, f64)> = score
         .rows
         .iter()

@@ -35,9 +35,9 @@ pub fn gaze_features_cell(data: &Path) -> Result<GazeFeaturesCell, TimingError> 
     let features = point_features_timed(&points, &protocol, &mut |g, s| {
         groups.push((g.to_string(), s))
     })
-    .map_err(|message| TimingError::Step {
+    .map_err(|e| TimingError::Step {
         step: "gaze features".into(),
-        message,
+        message: e.to_string(),
     })?;
     let model = GazeModel::builtin();
     let clock = Instant::now();

@@ -77,11 +77,12 @@ pub fn scoring_cell(data: &Path) -> Result<ScoringCell, TimingError> {
         rows_not_on_mesh: Default::default(),
     });
     let seen = hold_view_exposure(&mesh, &Protocol::builtin().0)
-        .map_err(stage)?
+        .map_err(|e| stage(e.to_string()))?
         .seen();
     let params = ScoreParams::default();
     let t = Instant::now();
-    score_mesh(&mesh, &truth, &maps, &params, Some(&seen), &Silent).map_err(stage)?;
+    score_mesh(&mesh, &truth, &maps, &params, Some(&seen), &Silent)
+        .map_err(|e| stage(e.to_string()))?;
     let score_s = t.elapsed().as_secs_f64();
     Ok(ScoringCell {
         vertices: n,
