@@ -19,7 +19,7 @@ pub enum StimulusError {
     /// Rendering, encoding or writing the video or a frame image failed; the message names
     /// the file.
     #[error("{0}")]
-    Video(String),
+    Video(#[from] crate::stimulus::VideoError),
     /// The manifest could not be serialized.
     #[error("the stimulus manifest: {0}")]
     Manifest(String),

@@ -6,14 +6,19 @@ use std::time::Instant;
 
 use super::camera::{CameraPlan, CameraState, Phase};
 use super::raster::Rasterizer;
+use super::video_error::VideoError;
 use super::{video, FrameImages, StimulusOptions};
 use crate::mesh::Mesh;
 use crate::progress::Progress;
 use crate::protocol::Protocol;
 
-fn save_png(path: &Path, rgb: &[u8], w: u32, h: u32) -> Result<(), String> {
-    image::save_buffer(path, rgb, w, h, image::ExtendedColorType::Rgb8)
-        .map_err(|e| format!("{}: {e}", path.display()))
+fn save_png(path: &Path, rgb: &[u8], w: u32, h: u32) -> Result<(), VideoError> {
+    image::save_buffer(path, rgb, w, h, image::ExtendedColorType::Rgb8).map_err(|e| {
+        VideoError::Image {
+            path: path.to_path_buf(),
+            detail: e.to_string(),
+        }
+    })
 }
 
 /// Where the frame loop's time went and how many frames it drew.
@@ -55,7 +60,7 @@ pub(super) fn render_frames(
     frames_dir: &Path,
     options: &StimulusOptions,
     progress: &dyn Progress,
-) -> Result<(usize, FrameCounts, Vec<video::Checker>), String> {
+) -> Result<(usize, FrameCounts, Vec<video::Checker>), VideoError> {
     let raster = Rasterizer::new(mesh);
     let n_frames = protocol.frame_count();
     let bounds = segment_bounds(n_frames, protocol.video.keyframe_interval_frames as usize);
@@ -63,7 +68,7 @@ pub(super) fn render_frames(
     // A failing segment stops the others at their next frame.
     let stop = &std::sync::atomic::AtomicBool::new(false);
     let mut file = Some(file);
-    let results: Vec<Result<SegmentResult, String>> = std::thread::scope(|scope| {
+    let results: Vec<Result<SegmentResult, VideoError>> = std::thread::scope(|scope| {
         let handles: Vec<_> = bounds
             .windows(2)
             .map(|range| {
@@ -94,8 +99,9 @@ pub(super) fn render_frames(
         handles
             .into_iter()
             .map(|h| {
-                h.join()
-                    .unwrap_or_else(|_| Err("a stimulus segment's thread panicked".into()))
+                h.join().unwrap_or_else(|_| {
+                    Err(VideoError::Thread("a stimulus segment's thread panicked"))
+                })
             })
             .collect()
     });
@@ -117,11 +123,13 @@ pub(super) fn render_frames(
                     f.write(&frame.annexb, frame.key)?;
                 }
             }
-            _ => return Err("stimulus segments out of order (a bug)".into()),
+            _ => return Err(VideoError::Thread("stimulus segments out of order (a bug)")),
         }
     }
     let frames = file
-        .ok_or("no stimulus segment wrote the file (a bug)")?
+        .ok_or(VideoError::Thread(
+            "no stimulus segment wrote the file (a bug)",
+        ))?
         .finish()?;
     Ok((frames, counts, checkers))
 }
@@ -193,7 +201,12 @@ impl Segment<'_> {
 
     /// The frame as PNG (every frame, or the first of each hold), and the hold's vertex-id
     /// buffer, as the options ask.
-    fn save_frame_images(&self, i: usize, frame: &[u8], hold_start: bool) -> Result<(), String> {
+    fn save_frame_images(
+        &self,
+        i: usize,
+        frame: &[u8],
+        hold_start: bool,
+    ) -> Result<(), VideoError> {
         let protocol = self.protocol;
         let (w, h) = (protocol.display.width_px, protocol.display.height_px);
         let options = self.options;
@@ -222,7 +235,7 @@ impl Segment<'_> {
         &self,
         range: std::ops::Range<usize>,
         mut encoder: video::SegmentEncoder,
-    ) -> Result<SegmentResult, String> {
+    ) -> Result<SegmentResult, VideoError> {
         let mut counts = FrameCounts::default();
         let mut cached: Option<(usize, Arc<Vec<u8>>)> = None; // (viewpoint, image) of the current hold
                                                               // The encoder runs on its own thread behind the renderer: it takes frames in order, so
@@ -232,9 +245,9 @@ impl Segment<'_> {
                                                               // transition while the encoder works through a hold.
         let in_flight = InFlight::new(IN_FLIGHT_IMAGES);
         let (send, receive) = std::sync::mpsc::channel::<(Arc<Vec<u8>>, bool)>();
-        let (encoded, encoder) = std::thread::scope(|scope| -> Result<_, String> {
+        let (encoded, encoder) = std::thread::scope(|scope| -> Result<_, VideoError> {
             let in_flight = &in_flight;
-            let encoding = scope.spawn(move || -> Result<_, String> {
+            let encoding = scope.spawn(move || -> Result<_, VideoError> {
                 // Whatever way this thread ends, the renderer must not wait for it any more.
                 let _closing = in_flight.close_on_drop();
                 let mut seconds = 0.0;
@@ -251,7 +264,7 @@ impl Segment<'_> {
                 Ok((seconds, encoder))
             });
             let mut last_sent: Option<Arc<Vec<u8>>> = None;
-            let rendering = (|| -> Result<(), String> {
+            let rendering = (|| -> Result<(), VideoError> {
                 for i in range {
                     if self.stop.load(std::sync::atomic::Ordering::Relaxed) {
                         break; // another segment failed; its error is the one to report
@@ -275,7 +288,7 @@ impl Segment<'_> {
             drop(send);
             let encoded = encoding
                 .join()
-                .map_err(|_| "the video encoder thread panicked".to_string())?;
+                .map_err(|_| VideoError::Thread("the video encoder thread panicked"))?;
             rendering?;
             encoded
         })?;
@@ -344,7 +357,7 @@ impl InFlight {
 
 /// The triangle under each pixel as a PNG: 24-bit id + 1 in RGB (0 = background), exact for
 /// up to 16.7 million triangles.
-fn save_id_buffer(raster: &Rasterizer, cam: &CameraState, path: &Path) -> Result<(), String> {
+fn save_id_buffer(raster: &Rasterizer, cam: &CameraState, path: &Path) -> Result<(), VideoError> {
     let ids = raster.triangle_ids(cam);
     let rgb: Vec<u8> = ids
         .iter()

@@ -20,6 +20,7 @@
 //! next P slice predicts from the newest reference, a repeat, which is the same picture as
 //! the one the encoder itself holds as its reference; its reference-list commands, if any,
 //! are relative to its own frame number and so still name that picture.
+use crate::stimulus::video_error::H264StreamError;
 
 /// What the repeat units need to know from the stream's parameter sets.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -56,7 +57,7 @@ impl RepeatWriter {
 
     /// Copies one of the encoder's access units (Annex B) to `out`, with its slices'
     /// `frame_num` continuing after the repeats written so far.
-    pub fn renumber(&mut self, annexb: &[u8], out: &mut Vec<u8>) -> Result<(), String> {
+    pub fn renumber(&mut self, annexb: &[u8], out: &mut Vec<u8>) -> Result<(), H264StreamError> {
         let mut slice_seen: Option<bool> = None; // Some(idr) once the unit's first slice is read
         for nal in nal_units(annexb) {
             let Some(&header) = nal.first() else {
@@ -84,9 +85,10 @@ impl RepeatWriter {
                         .params
                         .ok_or("the H.264 stream has a slice before its parameter sets")?;
                     if ref_idc == 0 {
-                        return Err("the encoder wrote a non-reference picture; repeats \
-                                    between its pictures need every picture to be a reference"
-                            .into());
+                        return Err(H264StreamError::from(
+                            "the encoder wrote a non-reference picture; repeats \
+                                    between its pictures need every picture to be a reference",
+                        ));
                     }
                     self.nal_ref_idc = ref_idc;
                     let idr = nal_type == 5;
@@ -100,7 +102,9 @@ impl RepeatWriter {
                     let at = frame_num_position(&self.rbsp)?;
                     let bits = params.log2_max_frame_num;
                     if at + bits as usize > self.rbsp.len() * 8 {
-                        return Err("an H.264 slice header ends before its frame number".into());
+                        return Err(H264StreamError::from(
+                            "an H.264 slice header ends before its frame number",
+                        ));
                     }
                     if read_bits_at(&self.rbsp, at, bits) == frame_num {
                         out.extend_from_slice(nal);
@@ -125,14 +129,16 @@ impl RepeatWriter {
                 self.next_frame_num = Some((current + 1) % (1 << params.log2_max_frame_num));
                 Ok(())
             }
-            None => Err("the encoder's access unit holds no picture".into()),
+            None => Err(H264StreamError::from(
+                "the encoder's access unit holds no picture",
+            )),
         }
     }
 
     /// Appends to `out` an access unit (Annex B) that shows the previous picture again.
-    pub fn repeat(&mut self, out: &mut Vec<u8>) -> Result<(), String> {
+    pub fn repeat(&mut self, out: &mut Vec<u8>) -> Result<(), H264StreamError> {
         let (Some(params), Some(frame_num)) = (self.params, self.next_frame_num) else {
-            return Err("a repeat needs a picture before it".into());
+            return Err(H264StreamError::from("a repeat needs a picture before it"));
         };
         let mut w = BitWriter::default();
         w.ue(0); // first_mb_in_slice
@@ -223,7 +229,7 @@ struct BitReader<'a> {
 }
 
 impl BitReader<'_> {
-    fn bit(&mut self) -> Result<u32, String> {
+    fn bit(&mut self) -> Result<u32, H264StreamError> {
         let byte = self
             .bytes
             .get(self.pos / 8)
@@ -232,24 +238,26 @@ impl BitReader<'_> {
         self.pos += 1;
         Ok(b as u32)
     }
-    fn bits(&mut self, n: u32) -> Result<u32, String> {
+    fn bits(&mut self, n: u32) -> Result<u32, H264StreamError> {
         let mut v = 0;
         for _ in 0..n {
             v = (v << 1) | self.bit()?;
         }
         Ok(v)
     }
-    fn ue(&mut self) -> Result<u32, String> {
+    fn ue(&mut self) -> Result<u32, H264StreamError> {
         let mut zeros = 0;
         while self.bit()? == 0 {
             zeros += 1;
             if zeros > 31 {
-                return Err("an H.264 Exp-Golomb code is longer than 32 bits".into());
+                return Err(H264StreamError::from(
+                    "an H.264 Exp-Golomb code is longer than 32 bits",
+                ));
             }
         }
         Ok(((1u64 << zeros) - 1 + self.bits(zeros)? as u64) as u32)
     }
-    fn se(&mut self) -> Result<i32, String> {
+    fn se(&mut self) -> Result<i32, H264StreamError> {
         let k = self.ue()? as i64;
         Ok(if k % 2 == 1 { (k + 1) / 2 } else { -(k / 2) } as i32)
     }
@@ -312,7 +320,7 @@ fn write_bits_at(bytes: &mut [u8], at: usize, n: u32, value: u32) {
 }
 
 /// The bit offset of `frame_num` in a slice header's RBSP (after the NAL header byte).
-fn frame_num_position(rbsp: &[u8]) -> Result<usize, String> {
+fn frame_num_position(rbsp: &[u8]) -> Result<usize, H264StreamError> {
     let mut r = BitReader {
         bytes: rbsp,
         pos: 0,
@@ -324,7 +332,7 @@ fn frame_num_position(rbsp: &[u8]) -> Result<usize, String> {
 }
 
 /// The fields of a sequence parameter set (§7.3.2.1.1) the repeats rely on, checked.
-fn parse_sps(rbsp: &[u8]) -> Result<SpsFields, String> {
+fn parse_sps(rbsp: &[u8]) -> Result<SpsFields, H264StreamError> {
     let mut r = BitReader {
         bytes: rbsp,
         pos: 0,
@@ -335,7 +343,9 @@ fn parse_sps(rbsp: &[u8]) -> Result<SpsFields, String> {
     if [100, 110, 122, 244, 44, 83, 86, 118, 128, 138, 139, 134, 135].contains(&profile_idc) {
         let chroma_format_idc = r.ue()?;
         if chroma_format_idc == 3 && r.bit()? == 1 {
-            return Err("H.264 repeats: separate colour planes are not supported".into());
+            return Err(H264StreamError::from(
+                "H.264 repeats: separate colour planes are not supported",
+            ));
         }
         r.ue()?; // bit_depth_luma_minus8
         r.ue()?; // bit_depth_chroma_minus8
@@ -359,23 +369,23 @@ fn parse_sps(rbsp: &[u8]) -> Result<SpsFields, String> {
     }
     let log2_max_frame_num = r.ue()?.saturating_add(4);
     if log2_max_frame_num > 16 {
-        return Err(format!(
+        return Err(H264StreamError::from(format!(
             "the H.264 SPS gives log2_max_frame_num {log2_max_frame_num} (at most 16)"
-        ));
+        )));
     }
     let poc_type = r.ue()?;
     if poc_type != 2 {
-        return Err(format!(
+        return Err(H264StreamError::from(format!(
             "H.264 repeats need picture order count type 2 (output order = decoding order); \
              the encoder wrote type {poc_type}"
-        ));
+        )));
     }
     let max_num_ref_frames = r.ue()?;
     if max_num_ref_frames != 1 {
-        return Err(format!(
+        return Err(H264StreamError::from(format!(
             "H.264 repeats need a stream with one reference frame; the encoder's has \
              {max_num_ref_frames}"
-        ));
+        )));
     }
     r.bit()?; // gaps_in_frame_num_value_allowed_flag
     let width_mbs = r.ue()?.saturating_add(1);
@@ -384,10 +394,14 @@ fn parse_sps(rbsp: &[u8]) -> Result<SpsFields, String> {
         .checked_mul(height_map_units)
         .filter(|&mbs| mbs <= 1 << 20)
         .ok_or_else(|| {
-            format!("the H.264 SPS gives a picture of {width_mbs} × {height_map_units} macroblocks")
+            H264StreamError(format!(
+                "the H.264 SPS gives a picture of {width_mbs} × {height_map_units} macroblocks"
+            ))
         })?;
     if r.bit()? != 1 {
-        return Err("H.264 repeats need frame (not field) coding".into());
+        return Err(H264StreamError::from(
+            "H.264 repeats need frame (not field) coding",
+        ));
     }
     Ok(SpsFields {
         sps_id,
@@ -397,7 +411,7 @@ fn parse_sps(rbsp: &[u8]) -> Result<SpsFields, String> {
 }
 
 /// The fields of a picture parameter set (§7.3.2.2) the repeats rely on, checked.
-fn parse_pps(rbsp: &[u8], sps: &SpsFields) -> Result<StreamParams, String> {
+fn parse_pps(rbsp: &[u8], sps: &SpsFields) -> Result<StreamParams, H264StreamError> {
     let mut r = BitReader {
         bytes: rbsp,
         pos: 0,
@@ -405,22 +419,28 @@ fn parse_pps(rbsp: &[u8], sps: &SpsFields) -> Result<StreamParams, String> {
     let pps_id = r.ue()?;
     let sps_id = r.ue()?;
     if sps_id != sps.sps_id {
-        return Err(format!(
+        return Err(H264StreamError::from(format!(
             "the H.264 picture parameter set names SPS {sps_id}, the stream has SPS {}",
             sps.sps_id
-        ));
+        )));
     }
     if r.bit()? != 0 {
-        return Err("H.264 repeats are written in CAVLC; the encoder chose CABAC".into());
+        return Err(H264StreamError::from(
+            "H.264 repeats are written in CAVLC; the encoder chose CABAC",
+        ));
     }
     r.bit()?; // bottom_field_pic_order_in_frame_present_flag
     if r.ue()? != 0 {
-        return Err("H.264 repeats do not support slice groups".into());
+        return Err(H264StreamError::from(
+            "H.264 repeats do not support slice groups",
+        ));
     }
     r.ue()?; // num_ref_idx_l0_default_active_minus1 (overridden in the repeat)
     r.ue()?; // num_ref_idx_l1_default_active_minus1
     if r.bit()? != 0 {
-        return Err("H.264 repeats do not support weighted prediction".into());
+        return Err(H264StreamError::from(
+            "H.264 repeats do not support weighted prediction",
+        ));
     }
     r.bits(2)?; // weighted_bipred_idc
     r.se()?; // pic_init_qp_minus26
@@ -429,7 +449,9 @@ fn parse_pps(rbsp: &[u8], sps: &SpsFields) -> Result<StreamParams, String> {
     let deblocking_filter_control_present = r.bit()? == 1;
     r.bit()?; // constrained_intra_pred_flag
     if r.bit()? != 0 {
-        return Err("H.264 repeats do not support redundant pictures".into());
+        return Err(H264StreamError::from(
+            "H.264 repeats do not support redundant pictures",
+        ));
     }
     Ok(StreamParams {
         log2_max_frame_num: sps.log2_max_frame_num,
@@ -574,7 +596,7 @@ mod tests {
             let mut writer = RepeatWriter::new();
             let mut out = Vec::new();
             let only_sets = writer.renumber(&parameter_sets(), &mut out).unwrap_err();
-            proptest::prop_assert!(only_sets.contains("holds no picture"), "{}", only_sets);
+            proptest::prop_assert!(only_sets.0.contains("holds no picture"), "{}", only_sets);
             for (header, payload) in &slices {
                 let mut unit = vec![0, 0, 0, 1, *header];
                 unit.extend_from_slice(payload);

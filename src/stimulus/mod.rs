@@ -12,12 +12,14 @@ pub(crate) mod overlay;
 pub mod raster;
 mod timeline;
 pub mod video;
+mod video_error;
 
 pub use error::StimulusError;
 pub use manifest::{
     manifest_path, Manifest, MeshFacts, TimelineFacts, Timings, VerifyReport, VideoFacts,
 };
 pub use timeline::{timeline_header, timeline_row};
+pub use video_error::{H264StreamError, VideoError};
 
 use frame_loop::render_frames;
 use timeline::write_timeline;

@@ -1,5 +1,6 @@
 //! H.264 in MP4 from RGB frames: openh264 (built from its bundled source, so nothing is
 //! downloaded) and muxide (pure Rust, fast-start MP4 with the index before the data).
+use super::video_error::VideoError;
 use std::io::{BufWriter, Write};
 use std::path::Path;
 
@@ -44,8 +45,11 @@ pub struct Mp4File {
 
 impl Mp4File {
     /// Creates the file at `path` for a video of `settings`.
-    pub fn create(path: &Path, settings: &VideoSettings) -> Result<Mp4File, String> {
-        let file = std::fs::File::create(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    pub fn create(path: &Path, settings: &VideoSettings) -> Result<Mp4File, VideoError> {
+        let file = std::fs::File::create(path).map_err(|error| VideoError::Create {
+            path: path.to_path_buf(),
+            error,
+        })?;
         let muxer = muxide::api::MuxerBuilder::new(BufWriter::new(file))
             .video(
                 muxide::api::VideoCodec::H264,
@@ -55,7 +59,10 @@ impl Mp4File {
             )
             .with_fast_start(true)
             .build()
-            .map_err(|e| format!("{}: cannot start the MP4 muxer: {e:?}", path.display()))?;
+            .map_err(|e| VideoError::MuxerStart {
+                path: path.to_path_buf(),
+                detail: format!("{e:?}"),
+            })?;
         Ok(Mp4File {
             muxer,
             fps: settings.fps as f64,
@@ -64,19 +71,22 @@ impl Mp4File {
     }
 
     /// Appends the next frame; it is shown at frame_index / fps seconds.
-    pub fn write(&mut self, annexb: &[u8], key: bool) -> Result<(), String> {
+    pub fn write(&mut self, annexb: &[u8], key: bool) -> Result<(), VideoError> {
         self.muxer
             .write_video(self.frames as f64 / self.fps, annexb, key)
-            .map_err(|e| format!("MP4 muxing failed at frame {}: {e:?}", self.frames))?;
+            .map_err(|e| VideoError::Mux {
+                frame: self.frames,
+                detail: format!("{e:?}"),
+            })?;
         self.frames += 1;
         Ok(())
     }
 
     /// Writes the MP4 index; returns the frame count.
-    pub fn finish(mut self) -> Result<usize, String> {
+    pub fn finish(mut self) -> Result<usize, VideoError> {
         self.muxer
             .finish_in_place()
-            .map_err(|e| format!("cannot finish the MP4: {e:?}"))?;
+            .map_err(|e| VideoError::MuxFinish(format!("{e:?}")))?;
         Ok(self.frames)
     }
 }
@@ -131,13 +141,19 @@ impl SegmentEncoder {
         first_frame: usize,
         sink: FrameSink,
         check: bool,
-    ) -> Result<SegmentEncoder, String> {
+    ) -> Result<SegmentEncoder, VideoError> {
         let encoder =
             Encoder::with_api_config(OpenH264API::from_source(), encoder_config(settings))
-                .map_err(|e| format!("cannot start the H.264 encoder: {e}"))?;
+                .map_err(|e| VideoError::CodecStart {
+                    what: "encoder",
+                    detail: e.to_string(),
+                })?;
         let checker = if check {
             Some(Checker {
-                decoder: openh264::decoder::Decoder::new().map_err(|e| e.to_string())?,
+                decoder: openh264::decoder::Decoder::new().map_err(|e| VideoError::CodecStart {
+                    what: "decoder",
+                    detail: e.to_string(),
+                })?,
                 decoded: vec![0; settings.width * settings.height * 3],
                 frames_decoded: 0,
                 min_psnr_db: f64::INFINITY,
@@ -163,7 +179,7 @@ impl SegmentEncoder {
     }
 
     /// Appends one RGB frame.
-    pub fn push(&mut self, rgb: &[u8]) -> Result<(), String> {
+    pub fn push(&mut self, rgb: &[u8]) -> Result<(), VideoError> {
         assert_eq!(rgb.len(), self.width * self.height * 3);
         self.yuv
             .read_rgb8(RgbSliceU8::new(rgb, (self.width, self.height)));
@@ -174,7 +190,7 @@ impl SegmentEncoder {
     /// decode check). 3 of every 4 frames of a stimulus repeat a hold; unless the frame is
     /// due to be a keyframe, it is written as a unit that copies the previous picture
     /// (`h264_repeat`), without the encoder.
-    pub fn push_repeat(&mut self, rgb: &[u8]) -> Result<(), String> {
+    pub fn push_repeat(&mut self, rgb: &[u8]) -> Result<(), VideoError> {
         if self.frames == 0 {
             return self.push(rgb);
         }
@@ -186,7 +202,7 @@ impl SegmentEncoder {
         self.annexb.clear();
         self.repeats
             .repeat(&mut self.annexb)
-            .map_err(|e| format!("frame {at}: {e}"))?;
+            .map_err(|error| VideoError::Stream { frame: at, error })?;
         self.emit(rgb, false)
     }
 
@@ -200,7 +216,7 @@ impl SegmentEncoder {
         }
     }
 
-    fn encode_current(&mut self, rgb: &[u8]) -> Result<(), String> {
+    fn encode_current(&mut self, rgb: &[u8]) -> Result<(), VideoError> {
         let at = self.first_frame + self.frames;
         if self.frames > 0 && self.keyframe_due() {
             self.encoder.force_intra_frame();
@@ -208,34 +224,35 @@ impl SegmentEncoder {
         let bitstream = self
             .encoder
             .encode(&self.yuv)
-            .map_err(|e| format!("H.264 encoding failed at frame {at}: {e}"))?;
+            .map_err(|e| VideoError::Encode {
+                frame: at,
+                detail: e.to_string(),
+            })?;
         let key = matches!(bitstream.frame_type(), FrameType::IDR | FrameType::I);
         if self.frames == 0 && !key {
-            return Err(format!(
-                "frame {at} starts an encoder but is not a keyframe"
-            ));
+            return Err(VideoError::NotKeyframe(at));
         }
         self.encoded.clear();
         bitstream.write_vec(&mut self.encoded);
         if self.encoded.is_empty() {
-            return Err(format!("the encoder skipped frame {at}"));
+            return Err(VideoError::Skipped(at));
         }
         self.annexb.clear();
         self.repeats
             .renumber(&self.encoded, &mut self.annexb)
-            .map_err(|e| format!("frame {at}: {e}"))?;
+            .map_err(|error| VideoError::Stream { frame: at, error })?;
         self.emit(rgb, key)
     }
 
     /// Checks (when asked) and stores the access unit in `annexb` as the next frame.
-    fn emit(&mut self, rgb: &[u8], key: bool) -> Result<(), String> {
+    fn emit(&mut self, rgb: &[u8], key: bool) -> Result<(), VideoError> {
         let at = self.first_frame + self.frames;
         if let Some(ch) = self.checker.as_mut() {
             for nal in openh264::nal_units(&self.annexb) {
-                let out = ch
-                    .decoder
-                    .decode(nal)
-                    .map_err(|e| format!("decoding back frame {at}: {e}"))?;
+                let out = ch.decoder.decode(nal).map_err(|e| VideoError::DecodeBack {
+                    frame: at,
+                    detail: e.to_string(),
+                })?;
                 if let Some(yuv) = out {
                     yuv.write_rgb8(&mut ch.decoded);
                     let mut se = 0.0;
