@@ -240,8 +240,7 @@ fn compute_nonempty(
     let t = Instant::now();
     let (values, report) = match method {
         Method::Sms => {
-            let r = sparse_metric_saliency(mesh, sms, SmsExtras::default(), progress)
-                .map_err(SaliencyError::Compute)?;
+            let r = sparse_metric_saliency(mesh, sms, SmsExtras::default(), progress)?;
             (r.vertex_saliency, serde_json::to_value(&r.report))
         }
         Method::Ms => {
@@ -258,29 +257,28 @@ fn compute_nonempty(
         Method::Si => {
             progress.start("SI (Song 2014)", 0);
             let params = SpectralParams::default();
-            let (v, r) = spectral_irregularity(mesh, &params).map_err(SaliencyError::Compute)?;
+            let (v, r) = spectral_irregularity(mesh, &params)?;
             progress.finish();
             (v, serde_json::to_value((&params, &r)))
         }
         Method::Sri => {
             progress.start("SRI (Leifman 2012)", 0);
             let params = &viewing.rarity.sri;
-            let (v, r) =
-                surface_regions_of_interest(mesh, params).map_err(SaliencyError::Compute)?;
+            let (v, r) = surface_regions_of_interest(mesh, params)?;
             progress.finish();
             (v, serde_json::to_value((params, &r)))
         }
         Method::Gr => {
             progress.start("GR (Wu 2013)", 0);
             let params = &viewing.rarity.gr;
-            let (v, r) = global_rarity_saliency(mesh, params).map_err(SaliencyError::Compute)?;
+            let (v, r) = global_rarity_saliency(mesh, params)?;
             progress.finish();
             (v, serde_json::to_value((params, &r)))
         }
         Method::Mr => {
             progress.start("MR (Tao 2015)", 0);
             let params = &viewing.rarity.mr;
-            let (v, r) = manifold_ranking_saliency(mesh, params).map_err(SaliencyError::Compute)?;
+            let (v, r) = manifold_ranking_saliency(mesh, params)?;
             progress.finish();
             (v, serde_json::to_value((params, &r)))
         }

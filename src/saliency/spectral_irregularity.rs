@@ -15,6 +15,7 @@
 //! the surface (area-weighted Gaussian, σ = `smoothing_sigma` normalized units: Song et al.
 //! end with a Gaussian smoothing whose width the paper does not give; 0.02 is SMS's σ) and
 //! rescaled to [0, 1].
+use crate::saliency::SaliencyError;
 use faer::Mat;
 use serde::Serialize;
 
@@ -71,7 +72,7 @@ pub struct SpectralReport {
 pub fn spectral_irregularity(
     mesh: &Mesh,
     params: &SpectralParams,
-) -> Result<(Vec<f64>, SpectralReport), String> {
+) -> Result<(Vec<f64>, SpectralReport), SaliencyError> {
     let norm = Normalization::of_mesh(mesh, BoundingBox::Oriented);
     let normalized = norm.normalized_mesh(mesh);
     let (small, _) = if normalized.positions.len() > params.vertices {
@@ -82,7 +83,9 @@ pub fn spectral_irregularity(
     };
     let n = small.positions.len();
     if n < 3 || small.triangles.is_empty() {
-        return Err("the simplified mesh has no triangle left".into());
+        return Err(SaliencyError::Compute(
+            "the simplified mesh has no triangle left".into(),
+        ));
     }
     let edges = unique_edges(&small);
     let weight = |a: usize, b: usize| {
@@ -93,7 +96,8 @@ pub fn spectral_irregularity(
             0.0
         }
     };
-    let (lambda, basis) = laplacian_eigenpairs(n, &edges, &weight)?;
+    let (lambda, basis) =
+        laplacian_eigenpairs(n, &edges, &weight).map_err(SaliencyError::Compute)?;
     let (e, zero) = exp_log_spectrum_irregularity(&lambda, params.box_width);
     // saliency_i = Σ_{j∈N(i)} W_ij Σ_k B_ik e_k B_jk
     let mut saliency_small = vec![0.0; n];

@@ -198,7 +198,7 @@ fn time_sms(
 ) -> Result<(), TimingError> {
     for _ in 0..repeat.max(1) {
         let r = sparse_metric_saliency(mesh, params, SmsExtras::default(), &Silent)
-            .map_err(step_error("sms"))?;
+            .map_err(|e| step_error("sms")(e.to_string()))?;
         let tm = &r.report.timings;
         if result.total_s.is_nan() || tm.total_s < result.total_s {
             result.a_s = tm.a_metric_s;

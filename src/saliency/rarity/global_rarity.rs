@@ -12,6 +12,7 @@
 //! Both terms stay in the descriptor's own units (Zernike moments of heights in units of the
 //! radius) until the final rescale: dividing each by its maximum first would stretch a
 //! featureless shape's numerical noise into a full-range map.
+use crate::saliency::SaliencyError;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -64,11 +65,13 @@ pub struct GrReport {
 pub fn global_rarity_saliency(
     mesh: &Mesh,
     params: &GrParams,
-) -> Result<(Vec<f64>, GrReport), String> {
+) -> Result<(Vec<f64>, GrReport), SaliencyError> {
     if params.radii.is_empty() || !(0.0..=1.0).contains(&params.local_weight) {
-        return Err("gr needs at least one radius and local_weight in [0, 1]".into());
+        return Err(SaliencyError::Invalid(
+            "gr needs at least one radius and local_weight in [0, 1]".into(),
+        ));
     }
-    let work = WorkingCopy::new(mesh, params.vertices)?;
+    let work = WorkingCopy::new(mesh, params.vertices).map_err(SaliencyError::Compute)?;
     let z = zernike_descriptors(&work, &params.radii, params.order);
     let per_radius = z[0].len() / params.radii.len();
     let n = work.len();

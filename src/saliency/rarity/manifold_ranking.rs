@@ -12,6 +12,7 @@
 //!    that ranks close to the background is not salient);
 //! 5. patch saliency on its vertices, spread by `smoothing_iterations` steps of Laplacian
 //!    smoothing (each vertex moves halfway to its neighbours' mean).
+use crate::saliency::SaliencyError;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -84,17 +85,17 @@ pub struct MrReport {
 pub fn manifold_ranking_saliency(
     mesh: &Mesh,
     params: &MrParams,
-) -> Result<(Vec<f64>, MrReport), String> {
+) -> Result<(Vec<f64>, MrReport), SaliencyError> {
     if params.radii.is_empty()
         || !(0.0..1.0).contains(&params.alpha)
         || !(params.background_fraction > 0.0 && params.background_fraction <= 1.0)
     {
-        return Err(
+        return Err(SaliencyError::Invalid(
             "mr needs at least one radius, alpha in [0, 1) and background_fraction in (0, 1]"
                 .into(),
-        );
+        ));
     }
-    let work = WorkingCopy::new(mesh, params.vertices)?;
+    let work = WorkingCopy::new(mesh, params.vertices).map_err(SaliencyError::Compute)?;
     let z = zernike_descriptors(&work, &params.radii, params.order);
     let patches = over_segment(&work.mesh, &work.graph, params.patches, params.seed);
     let (desc, area) = patch_descriptors(&work, &patches, &z);

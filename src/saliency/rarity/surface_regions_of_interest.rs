@@ -16,6 +16,7 @@
 //!
 //! Geodesic distances are coarse: between patch centres along the patch adjacency graph
 //! (never below the straight distance; the straight distance across components).
+use crate::saliency::SaliencyError;
 use faer::Mat;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -101,11 +102,13 @@ pub struct SriReport {
 pub fn surface_regions_of_interest(
     mesh: &Mesh,
     params: &SriParams,
-) -> Result<(Vec<f64>, SriReport), String> {
+) -> Result<(Vec<f64>, SriReport), SaliencyError> {
     if params.radii.is_empty() || params.most_similar == 0 {
-        return Err("sri needs at least one radius and most_similar ≥ 1".into());
+        return Err(SaliencyError::Invalid(
+            "sri needs at least one radius and most_similar ≥ 1".into(),
+        ));
     }
-    let work = WorkingCopy::new(mesh, params.vertices)?;
+    let work = WorkingCopy::new(mesh, params.vertices).map_err(SaliencyError::Compute)?;
     let n = work.len();
     let patches = over_segment(&work.mesh, &work.graph, params.patches, params.seed);
     let centre_distance = patches.centre_distances(&work.mesh);
@@ -125,7 +128,7 @@ pub fn surface_regions_of_interest(
     let mut scales = Vec::with_capacity(params.radii.len());
     for &radius in &params.radii {
         let images = spin_images(&work, radius, params.alpha_bins, params.beta_bins);
-        let u = pca_project(&images, params.pca_dims)?;
+        let u = pca_project(&images, params.pca_dims).map_err(SaliencyError::Compute)?;
         scales.push(DescriptorColumns::new(&u, to_units));
     }
     let k = params.most_similar.min(n - 1).max(1);
@@ -153,7 +156,8 @@ pub fn surface_regions_of_interest(
         )
         .collect();
     let max_d = distinctness.iter().cloned().fold(0.0, f64::max);
-    let extremities = extremity_patches(&work, &patches, &centre_distance, params.hull_directions)?;
+    let extremities = extremity_patches(&work, &patches, &centre_distance, params.hull_directions)
+        .map_err(SaliencyError::Compute)?;
     // Foci are picked relative to the most distinct vertex but weigh how far they stand above
     // the typical (median) vertex, so on a shape with nothing distinct no focus lifts its
     // surroundings.

@@ -4,6 +4,7 @@
 //!    harmonic shape descriptors (the metric is implicit in them);
 //! B. principal eigenvalue, then the sparse leading eigenvector by the truncated power method;
 //! C. Gaussian interpolation from samples to vertices, rescaled to [0, 1].
+use crate::saliency::SaliencyError;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -86,21 +87,29 @@ impl Default for SmsParams {
 
 impl SmsParams {
     /// Refuses parameters the method cannot run with, naming the command-line option.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), SaliencyError> {
         if self.samples < 2 {
-            return Err(format!(
+            return Err(SaliencyError::Invalid(format!(
                 "--samples must be at least 2 (got {})",
                 self.samples
-            ));
+            )));
         }
         if !(self.mu > 0.0 && self.mu <= 1.0) {
-            return Err(format!("--mu must be in (0, 1] (got {})", self.mu));
+            return Err(SaliencyError::Invalid(format!(
+                "--mu must be in (0, 1] (got {})",
+                self.mu
+            )));
         }
         if !(self.sigma > 0.0 && self.sigma.is_finite()) {
-            return Err(format!("--sigma must be positive (got {})", self.sigma));
+            return Err(SaliencyError::Invalid(format!(
+                "--sigma must be positive (got {})",
+                self.sigma
+            )));
         }
         if self.descriptor.scales.is_empty() {
-            return Err("--scales needs at least one radius".into());
+            return Err(SaliencyError::Invalid(
+                "--scales needs at least one radius".into(),
+            ));
         }
         if let Some(s) = self
             .descriptor
@@ -108,16 +117,20 @@ impl SmsParams {
             .iter()
             .find(|s| !(**s > 0.0 && s.is_finite()))
         {
-            return Err(format!("every scale must be a positive radius (got {s})"));
+            return Err(SaliencyError::Invalid(format!(
+                "every scale must be a positive radius (got {s})"
+            )));
         }
         if self.descriptor.shells == 0 || self.descriptor.bands == 0 {
-            return Err("--shells and --bands must be at least 1".into());
+            return Err(SaliencyError::Invalid(
+                "--shells and --bands must be at least 1".into(),
+            ));
         }
         if self.descriptor.quadrature_rings < self.descriptor.bands {
-            return Err(format!(
+            return Err(SaliencyError::Invalid(format!(
                 "--quadrature-rings ({}) must be at least --bands ({}) to resolve the bands",
                 self.descriptor.quadrature_rings, self.descriptor.bands
-            ));
+            )));
         }
         Ok(())
     }
@@ -241,7 +254,8 @@ fn describe(
     Ok(match params.field {
         FieldKind::Grid => {
             progress.start("distance field", 0);
-            let field = GridField::build(normalized, params.descriptor.max_radius(), params.grid)?;
+            let field = GridField::build(normalized, params.descriptor.max_radius(), params.grid)
+                .map_err(|e| e.to_string())?;
             let field_s = t_field.elapsed().as_secs_f64();
             progress.finish();
             progress.start("descriptors", centers.len() as u64);
@@ -284,10 +298,10 @@ pub fn sparse_metric_saliency(
     params: &SmsParams,
     extras: SmsExtras,
     progress: &dyn Progress,
-) -> Result<SmsResult, String> {
+) -> Result<SmsResult, SaliencyError> {
     params.validate()?;
     let t0 = Instant::now();
-    let a = stage_a(mesh, params, progress)?;
+    let a = stage_a(mesh, params, progress).map_err(SaliencyError::Compute)?;
     let a_s = t0.elapsed().as_secs_f64();
 
     let t1 = Instant::now();
@@ -370,9 +384,13 @@ pub fn descriptors_at(
     mesh: &Mesh,
     points: &[DVec3],
     params: &SmsParams,
-) -> Result<Descriptors, String> {
+) -> Result<Descriptors, SaliencyError> {
     let normalization = Normalization::of_mesh(mesh, params.bounding_box);
     let normalized = normalization.normalized_mesh(mesh);
     let centers: Vec<DVec3> = points.iter().map(|&p| normalization.apply(p)).collect();
-    Ok(describe(&normalized, &centers, params, &crate::progress::Silent)?.0)
+    Ok(
+        describe(&normalized, &centers, params, &crate::progress::Silent)
+            .map_err(SaliencyError::Compute)?
+            .0,
+    )
 }

@@ -11,6 +11,7 @@
 //! Unlike a voxelized EDT (ShapeSPH rasterizes the surface and measures to voxel centres,
 //! an error up to half a voxel diagonal) the distance near the surface is exact, which matters
 //! when the smallest ball (radius 0.02) spans only a few voxels.
+use crate::saliency::SaliencyError;
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -112,10 +113,12 @@ pub fn grid_geometry(
 impl GridField {
     /// Builds the field of `mesh` (already normalized) on a grid that covers the mesh plus
     /// `reach` (the largest sphere radius that will be sampled) and the Gaussian's tail.
-    pub fn build(mesh: &Mesh, reach: f64, params: GridParams) -> Result<GridField, String> {
+    pub fn build(mesh: &Mesh, reach: f64, params: GridParams) -> Result<GridField, SaliencyError> {
         let r = params.resolution;
-        let (lo, hi) = mesh.referenced_bounds().ok_or("the mesh has no triangle")?;
-        let (origin, h) = grid_geometry(lo, hi, reach, params)?;
+        let (lo, hi) = mesh
+            .referenced_bounds()
+            .ok_or_else(|| SaliencyError::Compute("the mesh has no triangle".into()))?;
+        let (origin, h) = grid_geometry(lo, hi, reach, params).map_err(SaliencyError::Invalid)?;
         let n = r * r * r;
         let mut dist2 = vec![f32::INFINITY; n];
         let mut tri = vec![NO_TRIANGLE; n];
