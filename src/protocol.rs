@@ -4,6 +4,24 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+/// A protocol's values contradict each other or are out of range; the message names the
+/// field (`Protocol::validate`).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct ProtocolRuleError(pub String);
+
+impl From<String> for ProtocolRuleError {
+    fn from(message: String) -> Self {
+        ProtocolRuleError(message)
+    }
+}
+
+impl From<&str> for ProtocolRuleError {
+    fn from(message: &str) -> Self {
+        ProtocolRuleError(message.to_string())
+    }
+}
+
 /// Why a protocol file could not be used; every variant names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum ProtocolError {
@@ -337,9 +355,9 @@ impl Protocol {
             path: path.to_string(),
             message: e.to_string().trim_end().to_string(),
         })?;
-        p.validate().map_err(|message| ProtocolError::Invalid {
+        p.validate().map_err(|e| ProtocolError::Invalid {
             path: path.to_string(),
-            message,
+            message: e.0,
         })?;
         Ok(p)
     }
@@ -357,7 +375,7 @@ impl Protocol {
     }
 
     /// Checks that the values are usable together; the message names the field.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), ProtocolRuleError> {
         for (key, pattern) in [
             ("stimulus_pattern", &self.fixations.stimulus_pattern),
             ("stimulus_end_pattern", &self.fixations.stimulus_end_pattern),
@@ -367,62 +385,76 @@ impl Protocol {
                     format!("[fixations] {key} `{p}` is not a regular expression: {e}")
                 })?;
                 if key == "stimulus_pattern" && re.captures_len() != 2 {
-                    return Err(format!(
+                    return Err(ProtocolRuleError::from(format!(
                         "[fixations] stimulus_pattern `{p}` needs exactly one capture group, around the stimulus name"
-                    ));
+                    )));
                 }
             }
         }
-        let positive = |v: f64, what: &str| -> Result<(), String> {
+        let positive = |v: f64, what: &str| -> Result<(), ProtocolRuleError> {
             if v > 0.0 && v.is_finite() {
                 Ok(())
             } else {
-                Err(format!("{what} must be positive (got {v})"))
+                Err(ProtocolRuleError::from(format!(
+                    "{what} must be positive (got {v})"
+                )))
             }
         };
         if self.version != 1 {
-            return Err(format!(
+            return Err(ProtocolRuleError::from(format!(
                 "version {} is not supported (this meshgaze reads 1)",
                 self.version
-            ));
+            )));
         }
         if self.display.width_px < 16 || self.display.height_px < 16 {
-            return Err("display.width_px and height_px must be at least 16".into());
+            return Err(ProtocolRuleError::from(
+                "display.width_px and height_px must be at least 16",
+            ));
         }
         if self.display.width_px % 2 == 1 || self.display.height_px % 2 == 1 {
-            return Err("display.width_px and height_px must be even (H.264 4:2:0 video)".into());
+            return Err(ProtocolRuleError::from(
+                "display.width_px and height_px must be even (H.264 4:2:0 video)",
+            ));
         }
         positive(self.display.width_mm, "display.width_mm")?;
         positive(self.display.height_mm, "display.height_mm")?;
         let [near, far] = self.display.viewing_distance_mm;
         positive(near, "display.viewing_distance_mm[0]")?;
         if far < near {
-            return Err("display.viewing_distance_mm must be [nearest, farthest]".into());
-        }
-        if !(1..=240).contains(&self.video.fps) {
-            return Err(format!(
-                "video.fps must be 1 to 240 (got {})",
-                self.video.fps
+            return Err(ProtocolRuleError::from(
+                "display.viewing_distance_mm must be [nearest, farthest]",
             ));
         }
+        if !(1..=240).contains(&self.video.fps) {
+            return Err(ProtocolRuleError::from(format!(
+                "video.fps must be 1 to 240 (got {})",
+                self.video.fps
+            )));
+        }
         if self.video.keyframe_interval_frames == 0 {
-            return Err("video.keyframe_interval_frames must be at least 1".into());
+            return Err(ProtocolRuleError::from(
+                "video.keyframe_interval_frames must be at least 1",
+            ));
         }
         if self.viewpoints.count == 0 {
-            return Err("viewpoints.count must be at least 1".into());
+            return Err(ProtocolRuleError::from(
+                "viewpoints.count must be at least 1",
+            ));
         }
         match self.viewpoints.generator {
             ViewpointGenerator::Icosahedron if self.viewpoints.count != 12 => {
-                return Err("viewpoints.count must be 12 with the icosahedron generator".into())
+                return Err(ProtocolRuleError::from(
+                    "viewpoints.count must be 12 with the icosahedron generator",
+                ))
             }
             ViewpointGenerator::List
                 if self.viewpoints.directions.len() != self.viewpoints.count =>
             {
-                return Err(format!(
+                return Err(ProtocolRuleError::from(format!(
                     "viewpoints.directions has {} entries but count is {}",
                     self.viewpoints.directions.len(),
                     self.viewpoints.count
-                ))
+                )))
             }
             _ => {}
         }
@@ -431,30 +463,38 @@ impl Protocol {
             ("viewpoints.up", self.viewpoints.up),
         ] {
             if v.iter().map(|x| x * x).sum::<f64>() == 0.0 {
-                return Err(format!("{name} must not be the zero vector"));
+                return Err(ProtocolRuleError::from(format!(
+                    "{name} must not be the zero vector"
+                )));
             }
         }
         if !(self.timing.hold_s >= 0.0 && self.timing.move_s >= 0.0) {
-            return Err("timing.hold_s and timing.move_s must be zero or more".into());
+            return Err(ProtocolRuleError::from(
+                "timing.hold_s and timing.move_s must be zero or more",
+            ));
         }
         positive(self.duration_s(), "the protocol's duration")?;
         let fov = self.rendering.field_of_view_deg;
         if !(fov > 1.0 && fov < 170.0) {
-            return Err(format!(
+            return Err(ProtocolRuleError::from(format!(
                 "rendering.field_of_view_deg must be in (1, 170) (got {fov})"
-            ));
+            )));
         }
         if !(self.rendering.fill > 0.0 && self.rendering.fill <= 1.0) {
-            return Err("rendering.fill must be in (0, 1]".into());
+            return Err(ProtocolRuleError::from("rendering.fill must be in (0, 1]"));
         }
         if !(1..=4).contains(&self.rendering.supersampling) {
-            return Err("rendering.supersampling must be 1 to 4".into());
+            return Err(ProtocolRuleError::from(
+                "rendering.supersampling must be 1 to 4",
+            ));
         }
         let f = &self.fixations;
         positive(f.tracker_accuracy_deg, "fixations.tracker_accuracy_deg")?;
         positive(f.calibration_accept_deg, "fixations.calibration_accept_deg")?;
         if f.keep_longest == 0 {
-            return Err("fixations.keep_longest must be at least 1".into());
+            return Err(ProtocolRuleError::from(
+                "fixations.keep_longest must be at least 1",
+            ));
         }
         Ok(())
     }

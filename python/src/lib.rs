@@ -189,7 +189,9 @@ fn viewing(
         .map(GazeModel::load)
         .transpose()
         .map_err(|e| e.to_string())?;
-    let rarity = RarityParams::default().with_settings(settings)?;
+    let rarity = RarityParams::default()
+        .with_settings(settings)
+        .map_err(|e| e.to_string())?;
     Ok(Viewing {
         protocol,
         model,

@@ -4,7 +4,7 @@
 //! fixation keeps its fate; none disappears.
 use serde::{Deserialize, Serialize};
 
-use super::recording::{EventKind, Eye, EyeSample, Recording, Sample};
+use super::recording::{EventKind, Eye, EyeSample, GazeError, Recording, Sample};
 use super::stimulus_messages::{
     classify_messages, place, stimulus_segments, Placement, Segmentation, StimulusSegment,
 };
@@ -443,18 +443,18 @@ pub fn fixations(
     policy: EyePolicy,
     params: &DetectorParams,
     segmentation: &Segmentation,
-) -> Result<Vec<Fixation>, String> {
+) -> Result<Vec<Fixation>, GazeError> {
     let policy = resolve_policy(rec, policy);
     let segments = stimulus_segments(&classify_messages(rec, segmentation), segmentation);
     let (raw, eye): (Vec<Raw>, &'static str) = match detector {
         Detector::Events => {
             if rec.events.is_empty() {
-                return Err(format!(
+                return Err(GazeError::NoFixations(format!(
                     "{}: no events: use --detector i-dt or i-vt on a sample file",
                     rec.file
-                ));
+                )));
             }
-            let want = event_eye(rec, policy)?;
+            let want = event_eye(rec, policy).map_err(GazeError::NoFixations)?;
             let raw = rec
                 .events
                 .iter()
@@ -482,7 +482,10 @@ pub fn fixations(
         }
         Detector::IDt | Detector::IVt => {
             if rec.samples.is_empty() {
-                return Err(format!("{}: no samples to detect fixations in", rec.file));
+                return Err(GazeError::NoFixations(format!(
+                    "{}: no samples to detect fixations in",
+                    rec.file
+                )));
             }
             let raw = if detector == Detector::IDt {
                 detect_idt(rec, policy, params)

@@ -399,6 +399,10 @@ pub fn ingest_file(path: &Path, params: &IngestParams) -> Result<IngestedFile, G
         &params.segmentation,
     )
     .map_err(|e| {
+        let e = match e {
+            GazeError::NoFixations(message) => message,
+            other => other.to_string(),
+        };
         // Say why the rows were unusable: that is usually why nothing was found.
         let first = rec.rows.unusable.iter().min_by_key(|(_, f)| f.line);
         match first {

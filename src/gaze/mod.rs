@@ -34,11 +34,25 @@ pub use recording::{
 
 use crate::file_bytes::{read_maybe_gzipped, ReadError};
 
+/// The bytes are not a recording meshgaze reads.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum FormatError {
+    /// An EyeLink EDF binary: its ASC text (from SR Research's edf2asc) is what is read.
+    #[error("{}", eyelink::edf_refusal())]
+    EyelinkEdf,
+    /// No format fits; the message lists what each expects.
+    #[error("{}", UNRECOGNIZED)]
+    Unrecognized,
+}
+
+/// What [`FormatError::Unrecognized`] says: every format's telltale lines.
+const UNRECOGNIZED: &str = "not a recognized gaze recording: expected an EyeLink ASC file (`** CONVERTED FROM … edf`, `MSG`/`START`/`SAMPLES` lines), a Tobii Pro Lab or Studio data export (`Recording timestamp` … `Gaze point X`, or `RecordingTimestamp` … `GazePointX (ADCSpx)`), a Tobii Studio 1.x/2.x fixation list (`FixationIndex\tTimestamp\tFixationDuration` after a `Data properties:` block), a Tobii Pro SDK gaze dump (`system_time_stamp`, `left_gaze_point_on_display_area_x`), a Gazepoint Analysis export (`TIME(…)`, `FPOGX`), a Pupil Labs surface export (`gaze_positions_on_surface_<name>.csv`, Marker Mapper `gaze.csv`), or an SMI export: a `## [iView]`/`## [BeGaze]` sample file (A, A'), an iView X 2.x `#FileVersion: 2` sample file (A2), a `Table Header for …` event file (C1), a BeGaze Raw Data table (`RecordingTime [ms]`, C2), an Event Statistics table (`Event Start Trial Time [ms]`, B) or a BeGaze fixation table (`Fixation Start [ms]`, B-fix)";
+
 /// Which format the bytes are, from their content (never the file name); an error saying
 /// what was expected when none fits.
-pub fn detect_format(bytes: &[u8]) -> Result<GazeFormat, String> {
+pub fn detect_format(bytes: &[u8]) -> Result<GazeFormat, FormatError> {
     if eyelink::looks_like_edf(bytes) {
-        return Err(eyelink::edf_refusal());
+        return Err(FormatError::EyelinkEdf);
     }
     let head = String::from_utf8_lossy(&bytes[..bytes.len().min(65536)]);
     let head = head.trim_start_matches('\u{feff}');
@@ -96,7 +110,7 @@ pub fn detect_format(bytes: &[u8]) -> Result<GazeFormat, String> {
     {
         return Ok(GazeFormat::BeGazeFixations);
     }
-    Err("not a recognized gaze recording: expected an EyeLink ASC file (`** CONVERTED FROM … edf`, `MSG`/`START`/`SAMPLES` lines), a Tobii Pro Lab or Studio data export (`Recording timestamp` … `Gaze point X`, or `RecordingTimestamp` … `GazePointX (ADCSpx)`), a Tobii Studio 1.x/2.x fixation list (`FixationIndex\tTimestamp\tFixationDuration` after a `Data properties:` block), a Tobii Pro SDK gaze dump (`system_time_stamp`, `left_gaze_point_on_display_area_x`), a Gazepoint Analysis export (`TIME(…)`, `FPOGX`), a Pupil Labs surface export (`gaze_positions_on_surface_<name>.csv`, Marker Mapper `gaze.csv`), or an SMI export: a `## [iView]`/`## [BeGaze]` sample file (A, A'), an iView X 2.x `#FileVersion: 2` sample file (A2), a `Table Header for …` event file (C1), a BeGaze Raw Data table (`RecordingTime [ms]`, C2), an Event Statistics table (`Event Start Trial Time [ms]`, B) or a BeGaze fixation table (`Fixation Start [ms]`, B-fix)".into())
+    Err(FormatError::Unrecognized)
 }
 
 /// Reads bytes as `format` (detected when None); `path` is for messages.
@@ -107,9 +121,9 @@ pub fn parse_recording(
 ) -> Result<Recording, GazeError> {
     let format = match format {
         Some(f) => f,
-        None => detect_format(bytes).map_err(|message| GazeError::File {
+        None => detect_format(bytes).map_err(|e| GazeError::File {
             path: path.to_string(),
-            message,
+            message: e.to_string(),
         })?,
     };
     let mut r = match format {

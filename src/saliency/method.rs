@@ -143,7 +143,13 @@ pub struct RarityParams {
 impl RarityParams {
     /// Applies `method.name=value` settings (e.g. `sri.most_similar=32`, `gr.radii=[0.1,0.2]`);
     /// the value is JSON, or a bare number or word.
-    pub fn with_settings(&self, settings: &[String]) -> Result<RarityParams, String> {
+    pub fn with_settings(&self, settings: &[String]) -> Result<RarityParams, SaliencyError> {
+        self.apply_settings(settings)
+            .map_err(SaliencyError::Invalid)
+    }
+
+    /// [`RarityParams::with_settings`], its refusals as text naming the setting.
+    fn apply_settings(&self, settings: &[String]) -> Result<RarityParams, String> {
         let mut tree = serde_json::to_value(self).map_err(|e| e.to_string())?;
         for setting in settings {
             let (key, value) = setting.split_once('=').ok_or_else(|| {

@@ -19,6 +19,7 @@
 //!
 //! During camera moves the observer keeps looking at the screen point where the target was
 //! when the fixation started (no smooth pursuit): such fixations carry `phase = move`.
+mod error;
 mod extremity_map;
 mod observers;
 pub mod playlist;
@@ -27,6 +28,7 @@ mod write_simulation;
 pub use crate::projection::round_trip::{
     parse_targets_csv, read_targets_csv, round_trip, RoundTrip, TrueFixation,
 };
+pub use error::SimulateError;
 pub use extremity_map::extremity_map;
 pub use observers::*;
 pub use write_simulation::{write_simulation, write_targets_csv, RecordingFormat};

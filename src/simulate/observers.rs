@@ -12,7 +12,7 @@ use crate::projection::{displayed_camera, RayCaster};
 use crate::protocol::{Display, Protocol};
 use crate::stimulus::camera::{CameraPlan, CameraState, Phase};
 
-use super::TrueFixation;
+use super::{SimulateError, TrueFixation};
 
 /// The virtual observers' behaviour (defaults: an SMI RED250 at 250 Hz, 8 subjects).
 #[derive(Debug, Clone, Serialize)]
@@ -158,22 +158,21 @@ pub fn simulate_observers(
     model: &TargetModel,
     stimulus_name: &str,
     params: &ObserverParams,
-) -> Result<Vec<VirtualSubject>, String> {
+) -> Result<Vec<VirtualSubject>, SimulateError> {
     if let TargetModel::Saliency(s) = model {
         if s.len() != mesh.positions.len() {
-            return Err(format!(
-                "the saliency map has {} values but the mesh has {} vertices",
-                s.len(),
-                mesh.positions.len()
-            ));
+            return Err(SimulateError::MapLength {
+                values: s.len(),
+                vertices: mesh.positions.len(),
+            });
         }
     }
     if let TargetModel::Vertices(v) = model {
-        if let Some(bad) = v.iter().find(|&&i| i >= mesh.positions.len()) {
-            return Err(format!(
-                "target vertex {bad} is out of range: the mesh has {} vertices",
-                mesh.positions.len()
-            ));
+        if let Some(&bad) = v.iter().find(|&&i| i >= mesh.positions.len()) {
+            return Err(SimulateError::TargetOutOfRange {
+                vertex: bad,
+                vertices: mesh.positions.len(),
+            });
         }
     }
     let caster = RayCaster::new(mesh);
@@ -477,7 +476,7 @@ fn simulate_one(
     visible_at: &dyn Fn(f64) -> (CameraState, VisibleSet),
     stimulus_name: &str,
     params: &ObserverParams,
-) -> Result<VirtualSubject, String> {
+) -> Result<VirtualSubject, SimulateError> {
     let mut rng = ChaCha8Rng::seed_from_u64(params.seed);
     rng.set_stream(k as u64 + 1);
     let id = format!("s{:02}", k + 1);

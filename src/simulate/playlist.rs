@@ -5,7 +5,9 @@ use rand::seq::SliceRandom;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use super::{extremity_map, simulate_observers, ObserverParams, TargetModel, VirtualSubject};
+use super::{
+    extremity_map, simulate_observers, ObserverParams, SimulateError, TargetModel, VirtualSubject,
+};
 use crate::stimulus::load::LoadedStimulus;
 
 /// Gap between two videos of a playlist, µs.
@@ -25,7 +27,7 @@ pub struct PlaylistSubject {
 pub fn simulate_playlists(
     stimuli: &[LoadedStimulus],
     params: &ObserverParams,
-) -> Result<Vec<PlaylistSubject>, String> {
+) -> Result<Vec<PlaylistSubject>, SimulateError> {
     // Per stimulus, all subjects (independent streams per subject).
     let mut per_stimulus: Vec<Vec<VirtualSubject>> = Vec::new();
     for (j, s) in stimuli.iter().enumerate() {

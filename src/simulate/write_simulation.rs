@@ -3,6 +3,7 @@
 use serde::Serialize;
 
 use super::observers::{ObserverParams, VirtualSubject};
+use super::SimulateError;
 use crate::gaze::recording::{Event, Header, Message, Sample};
 
 #[derive(Serialize)]
@@ -91,11 +92,16 @@ pub fn write_simulation(
     model_name: &str,
     params: &ObserverParams,
     format: RecordingFormat,
-) -> Result<(), String> {
-    crate::file_bytes::create_output_dir(dir).map_err(|e| format!("{e:#}"))?;
+) -> Result<(), SimulateError> {
+    crate::file_bytes::create_output_dir(dir)
+        .map_err(|e| SimulateError::OutputFolder(format!("{e:#}")))?;
     let write = |name: &str, text: &str| {
-        let p = dir.join(name);
-        std::fs::write(&p, text).map_err(|e| format!("cannot write {}: {e}", p.display()))
+        let path = dir.join(name);
+        std::fs::write(&path, text).map_err(|error| SimulateError::Io {
+            action: "write",
+            path,
+            error,
+        })
     };
     let mut facts = Vec::new();
     for s in subjects {
@@ -118,8 +124,11 @@ pub fn write_simulation(
         });
     }
     let tp = dir.join("targets.csv");
-    let file =
-        std::fs::File::create(&tp).map_err(|e| format!("cannot create {}: {e}", tp.display()))?;
+    let file = std::fs::File::create(&tp).map_err(|error| SimulateError::Io {
+        action: "create",
+        path: tp.clone(),
+        error,
+    })?;
     write_targets_csv(std::io::BufWriter::new(file), subjects)?;
     let sidecar = SimulationSidecar {
         provenance: crate::provenance::Provenance::new(inputs),
@@ -129,7 +138,7 @@ pub fn write_simulation(
         recording_format: format,
         subjects: facts,
     };
-    let json = serde_json::to_string_pretty(&sidecar).map_err(|e| e.to_string())? + "\n";
+    let json = serde_json::to_string_pretty(&sidecar)? + "\n";
     write("simulate.json", &json)
 }
 
@@ -137,12 +146,12 @@ pub fn write_simulation(
 pub fn write_targets_csv<W: std::io::Write>(
     out: W,
     subjects: &[VirtualSubject],
-) -> Result<(), String> {
+) -> Result<(), SimulateError> {
     let mut w = csv::Writer::from_writer(out);
     for s in subjects {
         for f in &s.fixations {
-            w.serialize(f).map_err(|e| e.to_string())?;
+            w.serialize(f)?;
         }
     }
-    w.flush().map_err(|e| e.to_string())
+    w.flush().map_err(|e| SimulateError::Csv(e.into()))
 }

@@ -91,7 +91,8 @@ pub fn load_ground_truth_on(
         )),
         GroundTruth::VertexMap(m) => {
             let values = face_values_to_vertices(mesh, &m.values);
-            let mut truth = vertex_truth_from_values(values, top_fraction).map_err(file_error)?;
+            let mut truth =
+                vertex_truth_from_values(values, top_fraction).map_err(|e| file_error(e.0))?;
             truth.positive_rule = format!(
                 "per-face map ({nf} faces) carried to vertices by area-weighted mean; {}",
                 truth.positive_rule

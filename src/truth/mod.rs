@@ -18,6 +18,6 @@ pub use density_file::read_density;
 pub use error::TruthError;
 pub use face_map::{face_values_to_vertices, load_ground_truth_on, TruthLayout};
 pub use fixation_truth::fixation_truth_from_rows;
-pub use read_truth_file::{load_ground_truth, vertex_truth_from_values};
+pub use read_truth_file::{load_ground_truth, vertex_truth_from_values, TruthValueError};
 
 pub use crate::scoring::ground_truth::{Fixation, FixationTruth, GroundTruth, VertexTruth};

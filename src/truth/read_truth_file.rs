@@ -216,23 +216,34 @@ fn read_vertex_map(
     })
 }
 
+/// Values that cannot be a truth map (one not finite, a top fraction outside (0, 1]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct TruthValueError(pub String);
+
+impl From<String> for TruthValueError {
+    fn from(message: String) -> Self {
+        TruthValueError(message)
+    }
+}
+
 /// A per-vertex truth map given as values (one per vertex, in mesh order) rather than a
 /// file: the top `top_fraction` of vertices by value are the positives, as for a file
 /// without a flag column. Refuses values that are not finite.
 pub fn vertex_truth_from_values(
     values: Vec<f64>,
     top_fraction: f64,
-) -> Result<VertexTruth, String> {
+) -> Result<VertexTruth, TruthValueError> {
     if let Some(i) = values.iter().position(|v| !v.is_finite()) {
-        return Err(format!(
+        return Err(TruthValueError::from(format!(
             "truth value {} (vertex {i}) is not finite",
             values[i]
-        ));
+        )));
     }
     if !(top_fraction > 0.0 && top_fraction <= 1.0) {
-        return Err(format!(
+        return Err(TruthValueError::from(format!(
             "the top fraction taken as fixated must be in (0, 1], not {top_fraction}"
-        ));
+        )));
     }
     let (positive, positive_rule) = positives_of(&values, None, top_fraction);
     Ok(VertexTruth {
