@@ -115,6 +115,7 @@ fn impossible_corruptions_and_empty_meshes_are_refused_by_name() {
         )
         .err()
         .expect("refused")
+        .to_string()
     };
     let e = run(RobustnessParams {
         hole_radius: 5.0,

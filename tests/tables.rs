@@ -150,7 +150,7 @@ proptest! {
     fn marks_errors_name_line_and_column(prefix in "[0-9]{1,3}", junk in "[a-z]{1,5}") {
         let text = format!("# marks\nvertex\n{prefix}\n  {junk}\n");
         let e = parse_marks(&text, "s.txt", 1000).unwrap_err();
-        prop_assert_eq!(e, format!("s.txt:4:3: expected a vertex index, found `{junk}`"));
+        prop_assert_eq!(e.to_string(), format!("s.txt:4:3: expected a vertex index, found `{junk}`"));
     }
 }
 

@@ -176,7 +176,7 @@ fn run_cross_validation(
     let meshes = evaluation_meshes(&args.dataset, args.truth_layout)?;
     let plan = CvPlan {
         categories: match &args.categories {
-            Some(p) => Some(Categories::read(p).map_err(anyhow::Error::msg)?),
+            Some(p) => Some(Categories::read(p)?),
             None => None,
         },
         ablations: args.ablations,

@@ -7,6 +7,7 @@
 //! its object family (leave-one-category-out, from a categories file: the proxy for transfer
 //! when there is one dataset). Feature-group ablations retrain each of those without one
 //! group of features, to show which group carries a held-out figure.
+use crate::experiments::ExperimentError;
 use serde::Serialize;
 
 use std::path::Path;
@@ -127,14 +128,16 @@ pub struct Categories {
 
 impl Categories {
     /// The categories file at `path`.
-    pub fn read(path: &Path) -> Result<Categories, String> {
-        let text = std::fs::read_to_string(path)
-            .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+    pub fn read(path: &Path) -> Result<Categories, ExperimentError> {
+        let text = std::fs::read_to_string(path).map_err(|error| ExperimentError::Io {
+            path: path.to_path_buf(),
+            error,
+        })?;
         Categories::parse(&text, &path.display().to_string())
     }
 
     /// Categories from TSV text; `name` labels the errors (name:line).
-    pub fn parse(text: &str, name: &str) -> Result<Categories, String> {
+    pub fn parse(text: &str, name: &str) -> Result<Categories, ExperimentError> {
         let mut of: Vec<(String, String)> = Vec::new();
         for (i, line) in text.lines().enumerate() {
             let line = line.trim_end_matches('\r');
@@ -143,23 +146,28 @@ impl Categories {
             }
             let fields: Vec<&str> = line.split('\t').map(str::trim).collect();
             if fields.len() != 2 || fields.iter().any(|f| f.is_empty()) {
-                return Err(format!(
-                    "{name}:{}:1: expected `object<TAB>category`, found {:?}",
-                    i + 1,
-                    line
-                ));
+                return Err(ExperimentError::At {
+                    name: name.to_string(),
+                    line: i + 1,
+                    column: 1,
+                    message: format!("expected `object<TAB>category`, found {line:?}"),
+                });
             }
             if let Some((_, c)) = of.iter().find(|(o, _)| o == fields[0]) {
-                return Err(format!(
-                    "{name}:{}:1: `{}` is already in category `{c}`",
-                    i + 1,
-                    fields[0]
-                ));
+                return Err(ExperimentError::At {
+                    name: name.to_string(),
+                    line: i + 1,
+                    column: 1,
+                    message: format!("`{}` is already in category `{c}`", fields[0]),
+                });
             }
             of.push((fields[0].to_string(), fields[1].to_string()));
         }
         if of.is_empty() {
-            return Err(format!("{name}: no `object<TAB>category` lines"));
+            return Err(ExperimentError::File {
+                name: name.to_string(),
+                message: "no `object<TAB>category` lines".into(),
+            });
         }
         Ok(Categories { of })
     }
@@ -215,7 +223,7 @@ fn check_categories(
     objects: &[TrainingObject],
     meshes: &[EvaluationMesh],
     plan: &CvPlan,
-) -> Result<(), String> {
+) -> Result<(), ExperimentError> {
     let Some(categories) = &plan.categories else {
         return Ok(());
     };
@@ -228,10 +236,10 @@ fn check_categories(
     if missing.is_empty() {
         return Ok(());
     }
-    Err(format!(
+    Err(ExperimentError::Invalid(format!(
         "the categories file names no category for: {}; every training object and held-out mesh needs one",
         missing.join(", ")
-    ))
+    )))
 }
 
 /// Every (scheme, held-out group, ablation): one training run each.
@@ -281,7 +289,7 @@ fn baseline_rows(
     seen: &[bool],
     gaze_map: Vec<f64>,
     viewing: &Viewing,
-) -> Result<Vec<CvRow>, String> {
+) -> Result<Vec<CvRow>, ExperimentError> {
     let mut maps: Vec<(String, Vec<f64>)> = vec![("gaze".into(), gaze_map)];
     for method in BASELINES {
         let out = compute_saliency_viewed(
@@ -291,7 +299,10 @@ fn baseline_rows(
             viewing,
             &crate::progress::Silent,
         )
-        .map_err(|e| format!("{}: {}: {e}", held.name, method.name()))?;
+        .map_err(|error| ExperimentError::Method {
+            what: format!("{}: {}", held.name, method.name()),
+            error,
+        })?;
         maps.push((method.name().to_string(), out.values));
     }
     let rank_sum: Vec<f64> = {
@@ -327,23 +338,17 @@ pub fn cross_validate(
     protocol: &Protocol,
     plan: &CvPlan,
     progress: &dyn Progress,
-) -> Result<CvResult, String> {
+) -> Result<CvResult, ExperimentError> {
     check_categories(objects, meshes, plan)?;
     let folds = folds_of(&schemes(objects, plan), meshes, plan);
     progress.start("held-out folds", (folds.len() + meshes.len()) as u64);
     let features: Vec<FeatureMatrix> = meshes
         .par_iter()
-        .map(|m| {
-            point_features(&SurfacePoints::of_mesh(&m.mesh), protocol).map_err(|e| e.to_string())
-        })
+        .map(|m| point_features(&SurfacePoints::of_mesh(&m.mesh), protocol))
         .collect::<Result<_, _>>()?;
     let seen: Vec<Vec<bool>> = meshes
         .iter()
-        .map(|m| {
-            hold_view_exposure(&m.mesh, protocol)
-                .map(|e| e.seen())
-                .map_err(|e| e.to_string())
-        })
+        .map(|m| hold_view_exposure(&m.mesh, protocol).map(|e| e.seen()))
         .collect::<Result<_, _>>()?;
     let predictions: Vec<Vec<(usize, Vec<f64>)>> = folds
         .par_iter()
@@ -360,8 +365,7 @@ pub fn cross_validate(
                     .filter(|n| feature_group(n) == *without)
                     .collect()
             };
-            let model = train_model_without(&training, options, &protocol.name, &dropped)
-                .map_err(|e| e.to_string())?;
+            let model = train_model_without(&training, options, &protocol.name, &dropped)?;
             let out = meshes
                 .iter()
                 .enumerate()
@@ -371,7 +375,7 @@ pub fn cross_validate(
             progress.advance(1);
             Ok(out)
         })
-        .collect::<Result<_, String>>()?;
+        .collect::<Result<_, ExperimentError>>()?;
     let mut held_out = Vec::new();
     let mut held_out_maps = vec![Vec::new(); meshes.len()];
     for ((scheme, group, without), maps) in folds.iter().zip(predictions) {
@@ -487,12 +491,16 @@ mod tests {
         assert_eq!(c.category("bunny"), Some("animals"));
         assert_eq!(c.category("james"), Some("humans and heads"));
         assert_eq!(c.category("cow"), None);
-        let e = Categories::parse("bunny\tanimals\ncow animals\n", "c.tsv").unwrap_err();
+        let e = Categories::parse("bunny\tanimals\ncow animals\n", "c.tsv")
+            .unwrap_err()
+            .to_string();
         assert!(
             e.starts_with("c.tsv:2:1: expected `object<TAB>category`"),
             "{e}"
         );
-        let e = Categories::parse("bunny\tanimals\nbunny\tpets\n", "c.tsv").unwrap_err();
+        let e = Categories::parse("bunny\tanimals\nbunny\tpets\n", "c.tsv")
+            .unwrap_err()
+            .to_string();
         assert!(
             e.contains("c.tsv:2:1: `bunny` is already in category `animals`"),
             "{e}"
@@ -504,7 +512,7 @@ mod tests {
         #[test]
         fn the_categories_parser_never_panics(text in "[a-z\t\r\n# ]{0,200}") {
             if let Err(e) = Categories::parse(&text, "c.tsv") {
-                prop_assert!(e.starts_with("c.tsv"));
+                prop_assert!(e.to_string().starts_with("c.tsv"));
             }
         }
     }

@@ -1,6 +1,7 @@
 //! The paper's robustness experiment (§5.4, Fig. 8): each method's map on damaged copies of
 //! a mesh (noise along normals, simplification, holes), carried back to the original
 //! vertices and compared with the method's own map on the clean mesh.
+use crate::experiments::ExperimentError;
 use serde::Serialize;
 
 use crate::experiments::corruption::{
@@ -84,26 +85,26 @@ pub struct RobustnessResult {
 
 /// The three damaged copies of the paper's Fig. 8; an error when a copy would not be damaged
 /// (simplifying to as many vertices as the mesh has) or would have no surface left.
-pub fn corrupt(mesh: &Mesh, p: &RobustnessParams) -> Result<Vec<Corrupted>, String> {
+pub fn corrupt(mesh: &Mesh, p: &RobustnessParams) -> Result<Vec<Corrupted>, ExperimentError> {
     if mesh.triangles.is_empty() {
-        return Err("the mesh has no triangles".into());
+        return Err(ExperimentError::Invalid("the mesh has no triangles".into()));
     }
     let n = mesh.positions.len();
     if p.simplify_to >= n {
-        return Err(format!(
+        return Err(ExperimentError::Invalid(format!(
             "--simplify-to {} is not below the mesh's {n} vertices: the \"simplified\" copy would be the mesh itself; give fewer vertices",
             p.simplify_to
-        ));
+        )));
     }
     let radius = Normalization::of_mesh(mesh, BoundingBox::Oriented).radius;
     let noisy = add_normal_noise(mesh, p.noise_fraction, p.seed);
     let (simplified, _) = simplify_to_vertex_count(mesh, p.simplify_to);
     let (holed, _) = cut_holes(mesh, p.holes, p.hole_radius * radius, p.seed);
     if holed.triangles.is_empty() {
-        return Err(format!(
+        return Err(ExperimentError::Invalid(format!(
             "{} holes of radius {} (normalized units) remove every triangle of the mesh; give a smaller --hole-radius or fewer --holes",
             p.holes, p.hole_radius
-        ));
+        )));
     }
     Ok(vec![
         Corrupted {
@@ -144,7 +145,7 @@ pub fn robustness(
     sms: &SmsParams,
     p: &RobustnessParams,
     progress: &dyn Progress,
-) -> Result<RobustnessResult, String> {
+) -> Result<RobustnessResult, ExperimentError> {
     let corrupted = corrupt(mesh, p)?;
     let viewing = Viewing {
         rarity: p.rarity.clone(),
@@ -155,8 +156,7 @@ pub fn robustness(
     let mut maps = Vec::new();
     let mut rows = Vec::new();
     for &method in methods {
-        let clean = compute_saliency_viewed(method, mesh, sms, &viewing, progress)
-            .map_err(|e| e.to_string())?;
+        let clean = compute_saliency_viewed(method, mesh, sms, &viewing, progress)?;
         // The clean map's top k vertices (ties to the lower index).
         let mut order: Vec<usize> = (0..n).collect();
         order.sort_by(|&a, &b| clean.values[b].total_cmp(&clean.values[a]).then(a.cmp(&b)));
@@ -166,8 +166,7 @@ pub fn robustness(
         }
         let mut own = Vec::new();
         for c in &corrupted {
-            let out = compute_saliency_viewed(method, &c.mesh, sms, &viewing, progress)
-                .map_err(|e| e.to_string())?;
+            let out = compute_saliency_viewed(method, &c.mesh, sms, &viewing, progress)?;
             let back = transfer_by_nearest_surface_point(&c.mesh, &out.values, &mesh.positions);
             rows.push(AgreementRow {
                 method: method.name().to_string(),

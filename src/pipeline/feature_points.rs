@@ -74,7 +74,8 @@ struct Sidecar<'a> {
 /// Reads one subject's marked vertices.
 pub fn read_marks(path: &Path, n_vertices: usize) -> Result<Vec<usize>, PipelineError> {
     let text = std::fs::read_to_string(path).map_err(PipelineError::io(path))?;
-    parse_marks(&text, &path.display().to_string(), n_vertices).map_err(PipelineError::Stage)
+    parse_marks(&text, &path.display().to_string(), n_vertices)
+        .map_err(|e| PipelineError::Stage(e.to_string()))
 }
 
 /// Writes a table to `path` with `rows`, the I/O error naming the file.
@@ -173,7 +174,7 @@ pub fn run_feature_points(
             params.alpha_step,
             diameter,
         )
-        .map_err(PipelineError::Invalid)?;
+        .map_err(|e| PipelineError::Invalid(e.to_string()))?;
         write_table(&path(".truth.csv"), |w| write_truth_points_csv(w, &t))?;
         write_table(&path(".eval.csv"), |w| write_evaluation_csv(w, &e))?;
         write_evaluation_chart(&path(".eval.png"), &e, params.alpha_max)?;

@@ -1,5 +1,6 @@
 //! The feature-point experiment's own arithmetic and files: the separation in mesh units, the
 //! sweep over the tolerance α, and the CSV tables `meshgaze features` writes.
+use crate::experiments::ExperimentError;
 use std::io::Write;
 
 use serde::Serialize;
@@ -43,10 +44,12 @@ pub fn alpha_sweep(
     alpha_max: f64,
     alpha_step: f64,
     geodesic_diameter: f64,
-) -> Result<Vec<Evaluation>, String> {
+) -> Result<Vec<Evaluation>, ExperimentError> {
     let steps = (alpha_max / alpha_step + 1e-9).floor();
     if !(alpha_step > 0.0 && alpha_max >= 0.0 && steps <= 1000.0) {
-        return Err("--alpha-step must be positive with at most 1000 steps".into());
+        return Err(ExperimentError::Invalid(
+            "--alpha-step must be positive with at most 1000 steps".into(),
+        ));
     }
     Ok((0..=steps as usize)
         .map(|i| {

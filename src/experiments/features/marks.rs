@@ -2,8 +2,13 @@
 //! field of the line; comma, space, tab or semicolon separated), `#` comments and an optional
 //! `vertex` header.
 
+use crate::experiments::ExperimentError;
 /// The marked vertices of one subject; errors name the line and column.
-pub fn parse_marks(text: &str, name: &str, n_vertices: usize) -> Result<Vec<usize>, String> {
+pub fn parse_marks(
+    text: &str,
+    name: &str,
+    n_vertices: usize,
+) -> Result<Vec<usize>, ExperimentError> {
     let mut out = Vec::new();
     let mut header_allowed = true;
     for (i, line) in text.lines().enumerate() {
@@ -20,17 +25,19 @@ pub fn parse_marks(text: &str, name: &str, n_vertices: usize) -> Result<Vec<usiz
         let col = line
             .find(field)
             .map_or(1, |c| line[..c].chars().count() + 1);
-        let v: usize = field.parse().map_err(|_| {
-            format!(
-                "{name}:{}:{col}: expected a vertex index, found `{field}`",
-                i + 1
-            )
-        })?;
+        let at = |message: String| ExperimentError::At {
+            name: name.to_string(),
+            line: i + 1,
+            column: col,
+            message,
+        };
+        let v: usize = field
+            .parse()
+            .map_err(|_| at(format!("expected a vertex index, found `{field}`")))?;
         if v >= n_vertices {
-            return Err(format!(
-                "{name}:{}:{col}: vertex {v} is out of range: the mesh has {n_vertices} vertices",
-                i + 1
-            ));
+            return Err(at(format!(
+                "vertex {v} is out of range: the mesh has {n_vertices} vertices"
+            )));
         }
         out.push(v);
     }
