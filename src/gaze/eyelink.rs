@@ -13,7 +13,7 @@
 //!
 //! The screen is the gaze coordinate space of `GAZE_COORDS` (else `DISPLAY_COORDS`), whose
 //! right and bottom bounds are the last pixel (`0 0 1023 767` is a 1024 × 768 screen), or the
-//! size where a program wrote it so (`0 0 1920 1080`, see [`pixels_across`]).
+//! size where a program wrote it so (`0 0 1920 1080`, see `pixels_across`).
 //!
 //! Trials: the lines of the n-th block, and those between its preceding `END` and its
 //! `START` (where experiment programs log `TRIALID` and often the stimulus), are trial n.

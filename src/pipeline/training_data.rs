@@ -32,7 +32,7 @@ pub enum TrainingSource {
         name: String,
         /// Its stimulus folder.
         stimulus: PathBuf,
-        /// Its truth/<mesh>/density.csv.
+        /// Its `truth/<mesh>/density.csv`.
         density: PathBuf,
     },
 }

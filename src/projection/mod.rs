@@ -1,5 +1,5 @@
 //! From 2D screen fixations to mesh vertices (paper §4): the camera that was on screen at the
-//! fixation's time (the stimulus's own [`CameraPlan`]), the screen point mapped into the video
+//! fixation's time (the stimulus's own [`CameraPlan`](crate::stimulus::CameraPlan)), the screen point mapped into the video
 //! (letterbox-aware), a ray from the eye through it, the first hit through a BVH with a
 //! watertight triangle test, and the hit triangle's nearest corner.
 //!

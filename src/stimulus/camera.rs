@@ -82,7 +82,7 @@ impl CameraState {
         ))
     }
 
-    /// The world-space ray through a screen point (pixel coordinates as in [`project`]):
+    /// The world-space ray through a screen point (pixel coordinates as in [`Self::project`]):
     /// origin at the eye, unit direction.
     pub fn ray(&self, x_px: f64, y_px: f64) -> (DVec3, DVec3) {
         let ndc_x = 2.0 * x_px / self.width_px as f64 - 1.0;

@@ -772,7 +772,7 @@ pub fn merge_study(study: &Study) -> Result<(usize, PathBuf)> {
     Ok((merged, report))
 }
 
-/// Joins OUT/scores/<mesh>.csv of every mesh present (from any shard) into OUT/scores.csv, in
+/// Joins `OUT/scores/<mesh>.csv` of every mesh present (from any shard) into `OUT/scores.csv`, in
 /// mesh-name order.
 pub fn merge_scores(study: &Study) -> Result<usize> {
     let dir = study.output.join("scores");

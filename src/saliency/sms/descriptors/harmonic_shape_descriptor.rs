@@ -122,7 +122,7 @@ impl DescriptorParams {
     }
 }
 
-/// Row-major n × dim matrix of descriptors; columns are [scale][shell][band].
+/// Row-major n × dim matrix of descriptors; columns are `[scale][shell][band]`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Descriptors {
     /// Rows: one per sample.
