@@ -4,6 +4,17 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+/// `v` is positive and finite, else the rule naming `what`.
+fn positive(v: f64, what: &str) -> Result<(), ProtocolRuleError> {
+    if v > 0.0 && v.is_finite() {
+        Ok(())
+    } else {
+        Err(ProtocolRuleError::from(format!(
+            "{what} must be positive (got {v})"
+        )))
+    }
+}
+
 /// A protocol's values contradict each other or are out of range; the message names the
 /// field (`Protocol::validate`).
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
@@ -376,6 +387,14 @@ impl Protocol {
 
     /// Checks that the values are usable together; the message names the field.
     pub fn validate(&self) -> Result<(), ProtocolRuleError> {
+        self.check_patterns()?;
+        self.check_display_and_video()?;
+        self.check_viewpoints_and_timing()?;
+        self.check_rendering_and_fixations()
+    }
+
+    /// The message patterns compile, and the onset pattern has its one capture group.
+    fn check_patterns(&self) -> Result<(), ProtocolRuleError> {
         for (key, pattern) in [
             ("stimulus_pattern", &self.fixations.stimulus_pattern),
             ("stimulus_end_pattern", &self.fixations.stimulus_end_pattern),
@@ -391,15 +410,11 @@ impl Protocol {
                 }
             }
         }
-        let positive = |v: f64, what: &str| -> Result<(), ProtocolRuleError> {
-            if v > 0.0 && v.is_finite() {
-                Ok(())
-            } else {
-                Err(ProtocolRuleError::from(format!(
-                    "{what} must be positive (got {v})"
-                )))
-            }
-        };
+        Ok(())
+    }
+
+    /// The screen, the viewing distance and the video settings.
+    fn check_display_and_video(&self) -> Result<(), ProtocolRuleError> {
         if self.version != 1 {
             return Err(ProtocolRuleError::from(format!(
                 "version {} is not supported (this meshgaze reads 1)",
@@ -436,6 +451,11 @@ impl Protocol {
                 "video.keyframe_interval_frames must be at least 1",
             ));
         }
+        Ok(())
+    }
+
+    /// The viewpoints and how long each is held and moved between.
+    fn check_viewpoints_and_timing(&self) -> Result<(), ProtocolRuleError> {
         if self.viewpoints.count == 0 {
             return Err(ProtocolRuleError::from(
                 "viewpoints.count must be at least 1",
@@ -474,6 +494,11 @@ impl Protocol {
             ));
         }
         positive(self.duration_s(), "the protocol's duration")?;
+        Ok(())
+    }
+
+    /// The camera's framing and the fixation filter.
+    fn check_rendering_and_fixations(&self) -> Result<(), ProtocolRuleError> {
         let fov = self.rendering.field_of_view_deg;
         if !(fov > 1.0 && fov < 170.0) {
             return Err(ProtocolRuleError::from(format!(
