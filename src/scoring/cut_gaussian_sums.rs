@@ -216,7 +216,15 @@ fn block_sums_dispatch(
             return unsafe { block_sums_avx2(grid, positions, block, inv, radius, r2) };
         }
     }
-    block_sums(grid, positions, block, inv, radius, r2)
+    block_sums(
+        grid,
+        positions,
+        block,
+        inv,
+        radius,
+        r2,
+        GroupKernel::Portable,
+    )
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -229,7 +237,7 @@ fn block_sums_avx512(
     radius: f64,
     r2: f32,
 ) -> Vec<f64> {
-    block_sums(grid, positions, block, inv, radius, r2)
+    block_sums(grid, positions, block, inv, radius, r2, GroupKernel::Avx512)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -242,7 +250,26 @@ fn block_sums_avx2(
     radius: f64,
     r2: f32,
 ) -> Vec<f64> {
-    block_sums(grid, positions, block, inv, radius, r2)
+    block_sums(
+        grid,
+        positions,
+        block,
+        inv,
+        radius,
+        r2,
+        GroupKernel::Portable,
+    )
+}
+
+/// Which code multiplies the weights by the maps: chosen once per block by the caller that
+/// knows the instruction set, not asked again in the inner loop.
+#[derive(Clone, Copy)]
+enum GroupKernel {
+    /// Portable code (`mul_add`).
+    Portable,
+    /// AVX-512 registers; only `block_sums_avx512` passes it.
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
 }
 
 /// One block's totals: `padded` values per target (denominator first), over every cell
@@ -255,6 +282,7 @@ fn block_sums(
     inv: f32,
     radius: f64,
     r2: f32,
+    kernel: GroupKernel,
 ) -> Vec<f64> {
     let p = grid.padded;
     let mut totals = vec![0.0f64; BLOCK * p];
@@ -304,13 +332,13 @@ fn block_sums(
                     pending.len += take;
                     u += take;
                     if pending.len == CHUNK {
-                        pending.flush(grid, &mut totals);
+                        pending.flush(grid, &mut totals, kernel);
                     }
                 }
             }
         }
     }
-    pending.flush(grid, &mut totals);
+    pending.flush(grid, &mut totals, kernel);
     totals
 }
 
@@ -342,11 +370,11 @@ struct Pending {
 impl Pending {
     /// Adds the pending sources' weighted values to the f64 totals and empties the buffer.
     #[inline(always)]
-    fn flush(&mut self, grid: &SourceCells, totals: &mut [f64]) {
+    fn flush(&mut self, grid: &SourceCells, totals: &mut [f64], kernel: GroupKernel) {
         let p = grid.padded;
         let (weights, sources) = (&self.weights[..self.len], &self.sources[..self.len]);
         for g in (0..p).step_by(GROUP) {
-            let acc = group_sums(weights, sources, &grid.values, p, g);
+            let acc = group_sums(weights, sources, &grid.values, p, g, kernel);
             for c in 0..GROUP {
                 for t in 0..BLOCK {
                     totals[t * p + g + c] += acc[c][t] as f64;
@@ -357,8 +385,8 @@ impl Pending {
     }
 }
 
-/// Σ_j w_j · x_j[g + c] for the group's channels c, lane by lane: each term a multiply, then
-/// an add (no fused step), in source order, so every instruction set rounds alike.
+/// Σ_j w_j · x_j[g + c] for the group's channels c, lane by lane: each term one fused
+/// multiply-add (exactly rounded on every instruction set), in source order.
 #[inline(always)]
 fn group_sums(
     weights: &[[f32; BLOCK]],
@@ -366,15 +394,15 @@ fn group_sums(
     values: &[f32],
     p: usize,
     g: usize,
+    kernel: GroupKernel,
 ) -> [[f32; BLOCK]; GROUP] {
-    #[cfg(target_arch = "x86_64")]
-    {
-        if std::arch::is_x86_feature_detected!("avx512f") {
-            // SAFETY: the CPU has AVX-512F, checked just above.
-            return unsafe { group_sums_avx512(weights, sources, values, p, g) };
-        }
+    match kernel {
+        GroupKernel::Portable => group_sums_plain(weights, sources, values, p, g),
+        // SAFETY: only block_sums_avx512 passes Avx512, and it is called only where the CPU
+        // has AVX-512F (block_sums_dispatch checks).
+        #[cfg(target_arch = "x86_64")]
+        GroupKernel::Avx512 => unsafe { group_sums_avx512(weights, sources, values, p, g) },
     }
-    group_sums_plain(weights, sources, values, p, g)
 }
 
 /// [`group_sums`] in portable code (`mul_add` is exactly rounded everywhere).
@@ -509,9 +537,18 @@ mod tests {
         let values: Vec<f32> = (0..200 * p)
             .map(|i| ((i * 7919) % 1000) as f32 / 300.0 - 1.0)
             .collect();
+        #[cfg(target_arch = "x86_64")]
+        if !std::arch::is_x86_feature_detected!("avx512f") {
+            eprintln!("no AVX-512 on this CPU: the register kernel is not compared here");
+            return;
+        }
         for g in [0, GROUP] {
             let plain = group_sums_plain(&weights, &sources, &values, p, g);
-            let fast = group_sums(&weights, &sources, &values, p, g);
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the CPU has AVX-512F, checked above.
+            let fast = unsafe { group_sums_avx512(&weights, &sources, &values, p, g) };
+            #[cfg(not(target_arch = "x86_64"))]
+            let fast = plain;
             assert_eq!(
                 plain.map(|a| a.map(f32::to_bits)),
                 fast.map(|a| a.map(f32::to_bits))
@@ -529,7 +566,15 @@ mod tests {
         let grid = source_cells(&mesh.positions, &areas, &rows, 3, 0.6);
         let targets = morton_order(&mesh.positions, &grid);
         for block in targets.chunks(BLOCK) {
-            let plain = block_sums(&grid, &mesh.positions, block, 12.5, 0.6, 0.36);
+            let plain = block_sums(
+                &grid,
+                &mesh.positions,
+                block,
+                12.5,
+                0.6,
+                0.36,
+                GroupKernel::Portable,
+            );
             let fast = block_sums_dispatch(&grid, &mesh.positions, block, 12.5, 0.6, 0.36);
             assert_eq!(
                 plain.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
