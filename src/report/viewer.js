@@ -217,6 +217,9 @@
     var resize = function () { self.resize(); };
     window.addEventListener('resize', resize);
     this.resize();
+    // Until the first frame is drawn (on the next animation frame) the status says so, so a
+    // page read before it tells "not drawn yet" from "the script did not run".
+    if (this.pending) this.report(false);
   }
 
   Viewer.prototype.buffer = function (target, array) {
