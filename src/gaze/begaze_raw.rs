@@ -4,7 +4,8 @@
 //! file is a pandas comma re-export). Times are milliseconds since the recording started and
 //! become integer microseconds.
 use super::recording::{
-    EyeSample, GazeError, GazeFormat, Header, Recording, RowAccount, Sample, SharedNames,
+    EyeSample, GazeError, GazeFormat, Header, Recording, RowAccount, Sample, SharedLabels,
+    SharedNames,
 };
 use super::text::{decode, header_row, lines, number, table_row, Separator};
 
@@ -65,6 +66,7 @@ struct Row<'a, 'r> {
     columns: &'a [String],
     rows: &'r mut RowAccount,
     names: &'r mut SharedNames,
+    labels: &'r mut SharedLabels,
 }
 
 impl Row<'_, '_> {
@@ -108,8 +110,8 @@ impl Row<'_, '_> {
         })
     }
 
-    fn text(&self, c: Option<usize>) -> Option<String> {
-        c.map(|i| self.fields[i].1.trim().to_string())
+    fn label(&mut self, c: Option<usize>) -> Option<std::sync::Arc<str>> {
+        c.map(|i| self.labels.of(self.fields[i].1.trim()))
     }
 
     /// The row's sample, or None when it is unusable (counted).
@@ -147,9 +149,9 @@ impl Row<'_, '_> {
             left,
             right,
             binocular,
-            binocular_event: self.text(cat_b),
-            left_event: self.text(cat_l),
-            right_event: self.text(cat_r),
+            binocular_event: self.label(cat_b),
+            left_event: self.label(cat_l),
+            right_event: self.label(cat_r),
             stimulus: cols
                 .stimulus
                 .map(|i| self.names.of(self.fields[i].1.trim())),
@@ -170,6 +172,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     let mut header = Header::default();
     let mut samples = Vec::new();
     let mut names = SharedNames::default();
+    let mut labels = SharedLabels::default();
     for &(no, line) in &all[1..] {
         let Some(f) = table_row(line, no, sep, columns.len(), &mut rows) else {
             continue;
@@ -182,13 +185,15 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             columns: &columns,
             rows: &mut rows,
             names: &mut names,
+            labels: &mut labels,
         };
         let Some(sample) = row.sample(&cols) else {
             continue;
         };
         if header.subject.is_none() {
-            header.subject = row
-                .text(cols.participant)
+            header.subject = cols
+                .participant
+                .map(|i| row.fields[i].1.trim().to_string())
                 .filter(|p| !super::text::is_missing(p));
         }
         samples.push(sample);

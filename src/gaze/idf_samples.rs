@@ -2,7 +2,8 @@
 //! line found by content (`Time` and `Type`), then `SMP` rows (one value per column) and `MSG`
 //! rows (`Time MSG Trial # Message: text`). Columns are picked by name, never by position.
 use super::recording::{
-    EyeSample, GazeError, GazeFormat, Header, Message, Recording, RowAccount, Sample, SharedNames,
+    EyeSample, GazeError, GazeFormat, Header, Message, Recording, RowAccount, Sample, SharedLabels,
+    SharedNames,
 };
 use super::text::{integer, lines, number, split, Separator};
 
@@ -202,6 +203,7 @@ fn parse_rows(chunk: &[(usize, &str)], layout: &Layout) -> (Vec<Sample>, Vec<Mes
     let mut samples = Vec::new();
     let mut messages = Vec::new();
     let mut names = SharedNames::default();
+    let mut labels = SharedLabels::default();
     'rows: for &(no, line) in chunk {
         if line.trim().is_empty() {
             rows.blank_lines += 1;
@@ -269,7 +271,7 @@ fn parse_rows(chunk: &[(usize, &str)], layout: &Layout) -> (Vec<Sample>, Vec<Mes
                         continue 'rows;
                     };
                     eyes[k] = Some(eye);
-                    events[k] = event;
+                    events[k] = event.map(|e| labels.of(e));
                 }
                 let [left_eye, right_eye] = eyes;
                 let [left_event, right_event] = events;
@@ -299,14 +301,14 @@ fn parse_rows(chunk: &[(usize, &str)], layout: &Layout) -> (Vec<Sample>, Vec<Mes
 
 /// One eye of an SMP row and its event column; `Err` when a field is not a number (the row
 /// is counted as unusable). Lost where the validity is 0 or the POR is (0, 0).
-fn smp_eye(
-    f: &[(usize, &str)],
+fn smp_eye<'a>(
+    f: &[(usize, &'a str)],
     c: &EyeColumns,
     columns: &[String],
     no: usize,
     line: &str,
     rows: &mut RowAccount,
-) -> Result<(EyeSample, Option<String>), ()> {
+) -> Result<(EyeSample, Option<&'a str>), ()> {
     let mut get = |i: usize| -> Result<Option<f64>, ()> {
         number(f[i].1, Separator::Tab).map_err(|_| {
             rows.reject(
@@ -331,5 +333,5 @@ fn smp_eye(
         valid,
         flag_lost,
     };
-    Ok((eye, c.event.map(|i| f[i].1.trim().to_string())))
+    Ok((eye, c.event.map(|i| f[i].1.trim())))
 }

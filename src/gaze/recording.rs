@@ -181,11 +181,11 @@ pub struct Sample {
     pub binocular: Option<EyeSample>,
     /// The exporter's binocular event label: BeGaze C2's category (`Visual Intake`, `Saccade`,
     /// `Blink`, `-`), Tobii's `Eye movement type`.
-    pub binocular_event: Option<String>,
+    pub binocular_event: Option<std::sync::Arc<str>>,
     /// The left eye's event label from the exporter (BeGaze's `Fixation`, `Saccade`, `Blink`, `-`), when exported.
-    pub left_event: Option<String>,
+    pub left_event: Option<std::sync::Arc<str>>,
     /// The right eye's event label, as `left_event`.
-    pub right_event: Option<String>,
+    pub right_event: Option<std::sync::Arc<str>>,
     /// The stimulus the row names (BeGaze's `Stimulus` column, Tobii's `Presented Media
     /// name`, Gazepoint's `MEDIA_NAME`), when the file has one; consecutive rows share one copy.
     pub stimulus: Option<std::sync::Arc<str>>,
@@ -210,6 +210,30 @@ impl SharedNames {
                 name
             }
         }
+    }
+}
+
+/// Event labels (`Fixation`, `Saccade`, `Blink`, `-`...) shared across rows: a handful of
+/// distinct texts on a million rows, each kept once instead of allocated per row.
+#[derive(Debug, Default)]
+pub(crate) struct SharedLabels {
+    seen: Vec<std::sync::Arc<str>>,
+}
+
+impl SharedLabels {
+    /// Beyond this many distinct labels a column is not a label column: copies are not kept.
+    const MAX_KEPT: usize = 32;
+
+    /// The shared copy of `text`.
+    pub(crate) fn of(&mut self, text: &str) -> std::sync::Arc<str> {
+        if let Some(label) = self.seen.iter().find(|l| ***l == *text) {
+            return label.clone();
+        }
+        let label: std::sync::Arc<str> = std::sync::Arc::from(text);
+        if self.seen.len() < Self::MAX_KEPT {
+            self.seen.push(label.clone());
+        }
+        label
     }
 }
 

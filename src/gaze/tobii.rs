@@ -24,9 +24,11 @@ use std::sync::Arc;
 
 use super::recording::{
     Event, EventKind, Eye, EyeSample, GazeError, GazeFormat, Header, Message, Recording,
-    RowAccount, Sample, SharedNames,
+    RowAccount, Sample, SharedLabels, SharedNames,
 };
-use super::text::{decode, lines, number, split_into, split_wanted, Separator};
+use super::text::{
+    decode, lines, number, split_into, split_wanted, split_wanted_unquoted, Separator,
+};
 
 /// Which Tobii exporter wrote the table.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -274,6 +276,7 @@ struct Reader<'a> {
     start_events: BTreeMap<String, i64>,
     other_sensors: BTreeMap<String, usize>,
     names_seen: SharedNames,
+    labels: SharedLabels,
 }
 
 impl Reader<'_> {
@@ -345,9 +348,12 @@ impl Reader<'_> {
             self.rows.blank_lines += 1;
             return;
         }
-        let count = if self.sep == Separator::Comma && line.contains('"') {
-            fields_into(line, self.sep, f);
-            f.len()
+        let count = if self.sep == Separator::Comma {
+            // A quoted CSV field may hold a comma: such a line is split field by field.
+            split_wanted_unquoted(line, self.sep, wanted, f).unwrap_or_else(|| {
+                fields_into(line, self.sep, f);
+                f.len()
+            })
         } else {
             split_wanted(line, self.sep, wanted, f)
         };
@@ -495,7 +501,7 @@ impl Reader<'_> {
             left,
             right,
             binocular,
-            binocular_event: movement.map(str::to_string),
+            binocular_event: movement.map(|m| self.labels.of(m)),
             left_event: None,
             right_event: None,
             stimulus,
@@ -755,6 +761,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         start_events: BTreeMap::new(),
         other_sensors: BTreeMap::new(),
         names_seen: SharedNames::default(),
+        labels: SharedLabels::default(),
     };
     let wanted = r.c.wanted(r.names.len());
     let mut fields = Vec::with_capacity(r.names.len() + 1);
