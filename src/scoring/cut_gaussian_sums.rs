@@ -79,11 +79,25 @@ pub(crate) fn cut_gaussian_sums(
     sigma: f64,
     radius: f64,
 ) -> (Vec<f64>, Vec<f64>) {
+    cut_gaussian_sums_at(positions, areas, rows, k, positions, sigma, radius)
+}
+
+/// [`cut_gaussian_sums`] from one point set (`sources`, with `areas` and k values per point in
+/// `rows`) to another (`positions`, the targets): one pair (den, k numerators) per target.
+pub(crate) fn cut_gaussian_sums_at(
+    sources: &[DVec3],
+    areas: &[f64],
+    rows: &[f64],
+    k: usize,
+    positions: &[DVec3],
+    sigma: f64,
+    radius: f64,
+) -> (Vec<f64>, Vec<f64>) {
     let n = positions.len();
-    if n == 0 {
-        return (Vec::new(), Vec::new());
+    if n == 0 || sources.is_empty() {
+        return (vec![0.0; n], vec![0.0; n * k]);
     }
-    let grid = source_cells(positions, areas, rows, k, radius);
+    let grid = source_cells(sources, areas, rows, k, radius);
     let targets = morton_order(positions, &grid);
     let inv = (1.0 / (2.0 * sigma * sigma)) as f32;
     let r2 = (radius * radius) as f32;
