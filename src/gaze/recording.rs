@@ -417,16 +417,21 @@ pub struct RowAccount {
 impl RowAccount {
     /// Counts one unusable line under `reason`, remembering the first one's place.
     pub fn reject(&mut self, reason: &str, line: usize, column: usize, example: &str) {
-        let e = self
-            .unusable
-            .entry(reason.to_string())
-            .or_insert(FirstSeen {
-                count: 0,
+        // A reason seen before only counts: no copy of its text or example (files where every
+        // tenth row is another sensor's would copy both on each).
+        if let Some(e) = self.unusable.get_mut(reason) {
+            e.count += 1;
+            return;
+        }
+        self.unusable.insert(
+            reason.to_string(),
+            FirstSeen {
+                count: 1,
                 line,
                 column,
                 example: example.chars().take(120).collect(),
-            });
-        e.count += 1;
+            },
+        );
     }
 
     /// Unusable lines, every reason together.

@@ -403,7 +403,12 @@ impl Reader<'_> {
         let gaze_row = match (self.c.sensor.is_some(), sensor) {
             (true, Some("Eye Tracker")) => true,
             (true, Some(other)) => {
-                *self.other_sensors.entry(other.to_string()).or_insert(0) += 1;
+                match self.other_sensors.get_mut(other) {
+                    Some(count) => *count += 1,
+                    None => {
+                        self.other_sensors.insert(other.to_string(), 1);
+                    }
+                }
                 if event.is_none() {
                     let reason = format!("a `{other}` sensor row (not gaze)");
                     self.rows.reject(&reason, no, 1, line);
