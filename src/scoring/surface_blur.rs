@@ -278,28 +278,35 @@ impl GaussianBlur {
     /// pair, summed in f32 blocks by `cut_gaussian_sums`, costs about 0.64 + 0.02 per channel
     /// of the lattice's multiply-adds, whose passes are bound by memory and count three times).
     pub fn sum_at(&self, sigma: f64, channels: usize) -> GaussianSum {
+        self.plan(sigma, channels).0
+    }
+
+    /// [`GaussianBlur::sum_at`], with the merged sources' groups when it chooses them, so
+    /// that the sources are grouped once per σ.
+    fn plan(&self, sigma: f64, channels: usize) -> (GaussianSum, Vec<Vec<usize>>) {
         if !self.lattice {
-            let merged = self.clusters(sigma).len() as f64;
-            let gain = self.direct.sources.len() as f64 / merged.max(1.0);
+            let groups = self.clusters(sigma);
+            let gain = self.direct.sources.len() as f64 / (groups.len() as f64).max(1.0);
             // A pair costs about (channels + 32) multiply-add units in either sum (the cost
             // model below); merged sources carry five channels per map.
             let dense = channels.saturating_sub(1) as f64;
             let cost_ratio = (5.0 * dense + 33.0) / (dense + 33.0);
             return if gain >= CLUSTER_MARGIN * cost_ratio {
-                GaussianSum::Clustered
+                (GaussianSum::Clustered, groups)
             } else {
-                GaussianSum::Direct
+                (GaussianSum::Direct, Vec::new())
             };
         }
         let d = &self.direct;
         let pairs = d.direct_pairs(self.cutoff_sigmas * sigma);
         let direct = pairs * (channels as f64 + 32.0) / 50.0;
         let lattice = lattice_work(&d.positions, sigma, channels);
-        if direct <= lattice {
+        let sum = if direct <= lattice {
             GaussianSum::Direct
         } else {
             GaussianSum::Lattice
-        }
+        };
+        (sum, Vec::new())
     }
 
     /// Blurs every map at σ; σ = 0 returns copies.
@@ -320,7 +327,8 @@ impl GaussianBlur {
             .collect();
         let k = dense.len();
         let rows = row_major(&dense);
-        let (den, dense_num) = match self.sum_at(sigma, k + 1) {
+        let (sum, groups) = self.plan(sigma, k + 1);
+        let (den, dense_num) = match sum {
             GaussianSum::Direct => cut_gaussian_sums(
                 &self.direct.positions,
                 &self.direct.areas,
@@ -329,7 +337,7 @@ impl GaussianBlur {
                 sigma,
                 self.cutoff_sigmas * sigma,
             ),
-            GaussianSum::Clustered => self.clustered_sums(&rows, k, sigma),
+            GaussianSum::Clustered => self.clustered_sums(&groups, &rows, k, sigma),
             GaussianSum::Lattice => self.lattice_sums(&rows, k, sigma),
         };
         let mut dense_out = column_major(&dense_num, k.max(1)).into_iter();
@@ -372,7 +380,8 @@ impl GaussianBlur {
         groups
     }
 
-    /// The direct sums from merged sources: each cube's sources become one at their
+    /// The direct sums from merged sources (`groups`, from [`GaussianBlur::clusters`] at σ):
+    /// each cube's sources become one at their
     /// area-weighted centroid c with their total area A, and for each map its area-weighted
     /// sum M0 and first moment M1 = Σ a_u x_u (u − c). To first order in u − c,
     ///
@@ -382,9 +391,14 @@ impl GaussianBlur {
     /// c. The sums over merged sources are plain kernel sums of five channels per map (M0,
     /// M1's three components, c·M1, each per unit area), so the exact f32 block kernel does
     /// them; the cut applies at the centroid's distance.
-    fn clustered_sums(&self, rows: &[f64], k: usize, sigma: f64) -> (Vec<f64>, Vec<f64>) {
+    fn clustered_sums(
+        &self,
+        groups: &[Vec<usize>],
+        rows: &[f64],
+        k: usize,
+        sigma: f64,
+    ) -> (Vec<f64>, Vec<f64>) {
         let d = &self.direct;
-        let groups = self.clusters(sigma);
         let width = 5 * k;
         let mut centres = Vec::with_capacity(groups.len());
         let mut areas = Vec::with_capacity(groups.len());
@@ -755,7 +769,7 @@ mod tests {
         };
         for sigma in [0.1, 0.2, 0.4] {
             let rows = row_major(&[&smooth, &independent]);
-            let (den, num) = blur.clustered_sums(&rows, 2, sigma);
+            let (den, num) = blur.clustered_sums(&blur.clusters(sigma), &rows, 2, sigma);
             let want = exact.blur(&[&smooth, &independent], sigma);
             for (m, map) in [&smooth, &independent].into_iter().enumerate() {
                 let worst = (0..n)
