@@ -311,6 +311,15 @@ fn block_sums(
         (tx[t], ty[t], tz[t]) = (q.x as f32, q.y as f32, q.z as f32);
         (lo, hi) = (lo.min(q), hi.max(q));
     }
+    // The block's box as the f32 lanes hold it: a source farther than the cutoff from this
+    // box (with a margin far above f32's rounding of d²) has a zero weight in every lane, so
+    // it is left out rather than multiplied by every map. A cell within reach of the box
+    // reaches a cell size beyond the cutoff, so about a quarter of its sources are such.
+    let lane = |t: usize| DVec3::new(tx[t] as f64, ty[t] as f64, tz[t] as f64);
+    let (lane_lo, lane_hi) = (1..BLOCK).fold((lane(0), lane(0)), |(l, h), t| {
+        (l.min(lane(t)), h.max(lane(t)))
+    });
+    let cull2 = r2 as f64 * (1.0 + 1e-4);
     let first = grid.coords(grid.origin + lo - DVec3::splat(radius));
     let last = grid.coords(grid.origin + hi + DVec3::splat(radius));
     let mut pending = Pending {
@@ -326,25 +335,21 @@ fn block_sums(
                 if s == e || box_gap2(grid.bounds[c], lo, hi) > radius * radius {
                     continue;
                 }
-                let mut u = s;
-                while u < e {
-                    let take = (e - u).min(CHUNK - pending.len);
-                    let slots = pending.len..pending.len + take;
-                    for (j, w) in pending.weights[slots.clone()].iter_mut().enumerate() {
-                        let v = u + j;
-                        let (sx, sy, sz, a) = (grid.xs[v], grid.ys[v], grid.zs[v], grid.areas[v]);
-                        for t in 0..BLOCK {
-                            let (dx, dy, dz) = (tx[t] - sx, ty[t] - sy, tz[t] - sz);
-                            let d2 = dx.mul_add(dx, dy.mul_add(dy, dz * dz));
-                            let kernel = a * exp_of_nonpositive(-d2 * inv);
-                            w[t] = if d2 <= r2 { kernel } else { 0.0 };
-                        }
+                for v in s..e {
+                    let (sx, sy, sz, a) = (grid.xs[v], grid.ys[v], grid.zs[v], grid.areas[v]);
+                    let source = DVec3::new(sx as f64, sy as f64, sz as f64);
+                    if box_gap2((source, source), lane_lo, lane_hi) > cull2 {
+                        continue;
                     }
-                    for (j, slot) in pending.sources[slots].iter_mut().enumerate() {
-                        *slot = (u + j) as u32;
+                    let w = &mut pending.weights[pending.len];
+                    for t in 0..BLOCK {
+                        let (dx, dy, dz) = (tx[t] - sx, ty[t] - sy, tz[t] - sz);
+                        let d2 = dx.mul_add(dx, dy.mul_add(dy, dz * dz));
+                        let kernel = a * exp_of_nonpositive(-d2 * inv);
+                        w[t] = if d2 <= r2 { kernel } else { 0.0 };
                     }
-                    pending.len += take;
-                    u += take;
+                    pending.sources[pending.len] = v as u32;
+                    pending.len += 1;
                     if pending.len == CHUNK {
                         pending.flush(grid, &mut totals, kernel);
                     }
