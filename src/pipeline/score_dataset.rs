@@ -2,6 +2,7 @@
 //! by the methods, each mesh scored over the blur grid with its chance band and human ceiling,
 //! the rows in one score CSV, plots per mesh, and the summary JSON with the mean over meshes.
 //! What `meshgaze score` runs, for one mesh or a `--dataset` folder.
+use rayon::prelude::*;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -112,13 +113,34 @@ fn maps_of(
             m.values,
         ));
     }
-    for &method in req.methods {
-        if method == Method::Gaze {
-            refuse_training_object(req.viewing, name)?;
-        }
-        let out =
-            compute_saliency_viewed(method, mesh, &SmsParams::default(), req.viewing, progress)
-                .map_err(|e| PipelineError::input(mesh_path, e))?;
+    if req.methods.contains(&Method::Gaze) {
+        refuse_training_object(req.viewing, name)?;
+    }
+    // The methods run side by side: each is parallel inside, but none keeps both cores busy
+    // all through (SI's eigendecomposition, SMS's serial steps), so work-stealing across
+    // methods fills the gaps. Each map is the same on any thread count; they are kept in the
+    // order asked for. A method's seconds are then its wall time beside the others. One
+    // bar counts the methods done (their own steps would interleave on a single bar).
+    progress.start("saliency maps", req.methods.len() as u64);
+    let computed: Vec<_> = req
+        .methods
+        .par_iter()
+        .map(|&method| {
+            let out = compute_saliency_viewed(
+                method,
+                mesh,
+                &SmsParams::default(),
+                req.viewing,
+                &crate::progress::Silent,
+            );
+            progress.advance(1);
+            out.map(|out| (method, out))
+                .map_err(|e| PipelineError::input(mesh_path, e))
+        })
+        .collect();
+    progress.finish();
+    for result in computed {
+        let (method, out) = result?;
         seconds.push((method.name().to_string(), out.seconds));
         maps.push((method.name().to_string(), out.values));
     }

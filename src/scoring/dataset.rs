@@ -66,7 +66,8 @@ pub struct MeshEntry {
     pub fixations: usize,
     /// Subject splits behind the human ceiling.
     pub human_splits: usize,
-    /// Seconds each computed method took.
+    /// Seconds each computed method took (wall time: the methods run side by side, so each
+    /// shares the cores with the others; `meshgaze saliency` or `bench` times one alone).
     pub seconds_per_method: Vec<(String, f64)>,
     /// One summary per map.
     pub summaries: Vec<MethodSummary>,
