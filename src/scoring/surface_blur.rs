@@ -274,7 +274,7 @@ impl GaussianBlur {
 
     /// The sum the dense maps get at σ with `channels` dense channels (the denominator one of
     /// them). The 3σ cut: merged sources where merging cuts the sources more than 1.5 times
-    /// the five channels per map it costs, else the direct sum. The full Gaussian: by a cost model calibrated on the 50k armadillo at 8 and 28 channels (a direct
+    /// the four channels per map it costs, else the direct sum. The full Gaussian: by a cost model calibrated on the 50k armadillo at 8 and 28 channels (a direct
     /// pair, summed in f32 blocks by `cut_gaussian_sums`, costs about 0.64 + 0.02 per channel
     /// of the lattice's multiply-adds, whose passes are bound by memory and count three times).
     pub fn sum_at(&self, sigma: f64, channels: usize) -> GaussianSum {
@@ -288,9 +288,9 @@ impl GaussianBlur {
             let groups = self.clusters(sigma);
             let gain = self.direct.sources.len() as f64 / (groups.len() as f64).max(1.0);
             // A pair costs about (channels + 32) multiply-add units in either sum (the cost
-            // model below); merged sources carry five channels per map.
+            // model below); merged sources carry four channels per map.
             let dense = channels.saturating_sub(1) as f64;
-            let cost_ratio = (5.0 * dense + 33.0) / (dense + 33.0);
+            let cost_ratio = (4.0 * dense + 33.0) / (dense + 33.0);
             return if gain >= CLUSTER_MARGIN * cost_ratio {
                 (GaussianSum::Clustered, groups)
             } else {
@@ -388,9 +388,10 @@ impl GaussianBlur {
     /// Σ_u a_u x_u K(u, v) ≈ K(c, v) (M0 + (v − c)·M1 / σ²)
     ///
     /// (∇_u K(u, v) = K (v − u)/σ²), and the denominator's first moment is zero by the choice of
-    /// c. The sums over merged sources are plain kernel sums of five channels per map (M0,
-    /// M1's three components, c·M1, each per unit area), so the exact f32 block kernel does
-    /// them; the cut applies at the centroid's distance.
+    /// c. Written K(c, v) (M0 − c·M1/σ²) + v·K(c, v) M1/σ², the part that depends on the target
+    /// is v alone, outside the sum: the sums over merged sources are plain kernel sums of four
+    /// channels per map (M0 − c·M1/σ² and M1's three components, each per unit area), so the
+    /// exact f32 block kernel does them; the cut applies at the centroid's distance.
     fn clustered_sums(
         &self,
         groups: &[Vec<usize>],
@@ -399,7 +400,8 @@ impl GaussianBlur {
         sigma: f64,
     ) -> (Vec<f64>, Vec<f64>) {
         let d = &self.direct;
-        let width = 5 * k;
+        let width = 4 * k;
+        let inv_var = 1.0 / (sigma * sigma);
         let mut centres = Vec::with_capacity(groups.len());
         let mut areas = Vec::with_capacity(groups.len());
         let mut merged = vec![0.0; groups.len() * width];
@@ -422,7 +424,7 @@ impl GaussianBlur {
             }
             for j in 0..k {
                 let m1 = DVec3::new(row[k + 3 * j], row[k + 3 * j + 1], row[k + 3 * j + 2]);
-                row[4 * k + j] = c.dot(m1);
+                row[j] -= c.dot(m1) * inv_var;
             }
             // Per unit area: the kernel weighs each channel by the source's area.
             row.iter_mut().for_each(|x| *x /= area);
@@ -439,13 +441,12 @@ impl GaussianBlur {
             sigma,
             radius,
         );
-        let inv_var = 1.0 / (sigma * sigma);
         let mut num = vec![0.0; d.positions.len() * k];
         for (v, p) in d.positions.iter().enumerate() {
             let s = &sums[v * width..(v + 1) * width];
             for j in 0..k {
                 let s1 = DVec3::new(s[k + 3 * j], s[k + 3 * j + 1], s[k + 3 * j + 2]);
-                num[v * k + j] = s[j] + (p.dot(s1) - s[4 * k + j]) * inv_var;
+                num[v * k + j] = s[j] + p.dot(s1) * inv_var;
             }
         }
         (den, num)
