@@ -470,64 +470,77 @@ pub fn score_mesh(
         }
         GroundTruth::VertexMap(_) => Vec::new(),
     };
+    progress.start("scoring over blur", params.blur_sigmas.len() as u64);
+    // The blur levels run side by side (each is parallel inside but has serial steps between
+    // its parallel ones: grouping sources, reordering rows, the chance band's quantiles), and
+    // their rows are joined in σ order afterwards: the same bytes on any thread count.
+    let per_sigma: Vec<(Vec<ScoreRow>, Vec<f64>)> = params
+        .blur_sigmas
+        .par_iter()
+        .map(|&sigma| {
+            let mut rows = Vec::new();
+            let mut push = |method: &str, metric: &'static str, value: f64| {
+                rows.push(ScoreRow {
+                    method: method.to_string(),
+                    metric,
+                    blur: sigma,
+                    value,
+                })
+            };
+            let mut inputs: Vec<&[f64]> = maps.iter().map(|(_, m)| m.as_slice()).collect();
+            inputs.extend(chance.iter().map(|c| c.as_slice()));
+            inputs.extend(subject_counts.iter().map(|c| c.as_slice()));
+            let blurred = blur.blur(&inputs, sigma)?;
+            let (method_maps, rest) = blurred.split_at(maps.len());
+            let (chance_blurred, subject_maps) = rest.split_at(chance.len());
+            let target = Target {
+                positive: &positive,
+                fixated: &fixated,
+                density: match truth {
+                    GroundTruth::VertexMap(m) => m.values.clone(),
+                    GroundTruth::Fixations(_) => sum_of_maps(subject_maps.iter(), n),
+                },
+                weights,
+                params,
+                seen,
+            };
+            // Every map's metrics in parallel (Gini sorts each map): rows keep the maps' order.
+            let mut all_metrics: Vec<Vec<(&'static str, f64)>> = method_maps
+                .par_iter()
+                .chain(chance_blurred.par_iter())
+                .map(|m| target.metrics_of(m))
+                .collect();
+            let chance_metrics = all_metrics.split_off(maps.len());
+            for ((name, _), metrics) in maps.iter().zip(all_metrics) {
+                for (metric, value) in metrics {
+                    push(name, metric, value);
+                }
+            }
+            let chance_auc: Vec<f64> = chance_metrics.iter().map(|m| m[0].1).collect();
+            for (j, (metric, _)) in chance_metrics[0].iter().enumerate() {
+                let values: Vec<f64> = chance_metrics.iter().map(|m| m[j].1).collect();
+                push(
+                    CHANCE,
+                    metric,
+                    values.iter().sum::<f64>() / values.len() as f64,
+                );
+                push(CHANCE_LOW, metric, quantile(&values, 0.025));
+                push(CHANCE_HIGH, metric, quantile(&values, 0.975));
+            }
+            if let (GroundTruth::Fixations(f), false) = (truth, splits.is_empty()) {
+                for (metric, value) in human_ceiling(f, subject_maps, &splits, weights) {
+                    push(HUMAN, metric, value);
+                }
+            }
+            progress.advance(1);
+            Ok((rows, chance_auc))
+        })
+        .collect::<Result<_, ScoreError>>()?;
     let mut rows = Vec::new();
     let mut chance_auc_judd = Vec::new();
-    progress.start("scoring over blur", params.blur_sigmas.len() as u64);
-    for &sigma in &params.blur_sigmas {
-        let mut push = |method: &str, metric: &'static str, value: f64| {
-            rows.push(ScoreRow {
-                method: method.to_string(),
-                metric,
-                blur: sigma,
-                value,
-            })
-        };
-        let mut inputs: Vec<&[f64]> = maps.iter().map(|(_, m)| m.as_slice()).collect();
-        inputs.extend(chance.iter().map(|c| c.as_slice()));
-        inputs.extend(subject_counts.iter().map(|c| c.as_slice()));
-        let blurred = blur.blur(&inputs, sigma)?;
-        let (method_maps, rest) = blurred.split_at(maps.len());
-        let (chance_blurred, subject_maps) = rest.split_at(chance.len());
-        let target = Target {
-            positive: &positive,
-            fixated: &fixated,
-            density: match truth {
-                GroundTruth::VertexMap(m) => m.values.clone(),
-                GroundTruth::Fixations(_) => sum_of_maps(subject_maps.iter(), n),
-            },
-            weights,
-            params,
-            seen,
-        };
-        // Every map's metrics in parallel (Gini sorts each map): rows keep the maps' order.
-        let mut all_metrics: Vec<Vec<(&'static str, f64)>> = method_maps
-            .par_iter()
-            .chain(chance_blurred.par_iter())
-            .map(|m| target.metrics_of(m))
-            .collect();
-        let chance_metrics = all_metrics.split_off(maps.len());
-        for ((name, _), metrics) in maps.iter().zip(all_metrics) {
-            for (metric, value) in metrics {
-                push(name, metric, value);
-            }
-        }
-        chance_auc_judd.push((sigma, chance_metrics.iter().map(|m| m[0].1).collect()));
-        for (j, (metric, _)) in chance_metrics[0].iter().enumerate() {
-            let values: Vec<f64> = chance_metrics.iter().map(|m| m[j].1).collect();
-            push(
-                CHANCE,
-                metric,
-                values.iter().sum::<f64>() / values.len() as f64,
-            );
-            push(CHANCE_LOW, metric, quantile(&values, 0.025));
-            push(CHANCE_HIGH, metric, quantile(&values, 0.975));
-        }
-        if let (GroundTruth::Fixations(f), false) = (truth, splits.is_empty()) {
-            for (metric, value) in human_ceiling(f, subject_maps, &splits, weights) {
-                push(HUMAN, metric, value);
-            }
-        }
-        progress.advance(1);
+    for (&sigma, (sigma_rows, chance_auc)) in params.blur_sigmas.iter().zip(per_sigma) {
+        rows.extend(sigma_rows);
+        chance_auc_judd.push((sigma, chance_auc));
     }
     progress.finish();
     Ok(MeshScore {
@@ -595,6 +608,51 @@ mod tests {
         let one = human_rows(1);
         assert_eq!(one.len(), 9);
         assert_eq!(one, human_rows(20));
+    }
+
+    /// The blur levels and maps run side by side: the rows must be the same bytes, in the same
+    /// order, whatever the thread count.
+    #[test]
+    fn rows_are_the_same_bytes_on_one_or_three_threads() {
+        use crate::progress::Silent;
+        use crate::scoring::ground_truth::{Fixation, FixationTruth};
+        let mesh = crate::mesh::test_meshes::icosphere(1.0, 3);
+        let n = mesh.positions.len();
+        let subjects: Vec<String> = (0..4).map(|s| format!("s{s}")).collect();
+        let fixations: Vec<Fixation> = (0..40)
+            .map(|i| Fixation {
+                subject: subjects[i % 4].clone(),
+                vertex: (i * 53) % n,
+            })
+            .collect();
+        let truth = GroundTruth::Fixations(FixationTruth {
+            rows: fixations.len(),
+            fixations,
+            subjects,
+            rows_not_on_mesh: Default::default(),
+        });
+        let height: Vec<f64> = mesh.positions.iter().map(|p| p.z).collect();
+        let maps = vec![("height".to_string(), height)];
+        let params = ScoreParams {
+            chance_maps: 5,
+            blur_sigmas: vec![0.0, 0.05, 0.1, 0.3, 0.6],
+            ..ScoreParams::default()
+        };
+        let rows_on = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| score_mesh(&mesh, &truth, &maps, &params, None, &Silent))
+                .unwrap()
+                .rows
+                .into_iter()
+                .map(|r| (r.method, r.metric, r.blur.to_bits(), r.value.to_bits()))
+                .collect::<Vec<_>>()
+        };
+        let one = rows_on(1);
+        assert!(one.iter().any(|r| r.0 == HUMAN && r.2 == 0.6f64.to_bits()));
+        assert_eq!(one, rows_on(3));
     }
 
     #[test]
