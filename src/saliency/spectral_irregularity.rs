@@ -99,10 +99,24 @@ pub fn spectral_irregularity(
     let (lambda, basis) =
         laplacian_eigenpairs(n, &edges, &weight).map_err(SaliencyError::Compute)?;
     let (e, zero) = exp_log_spectrum_irregularity(&lambda, params.box_width);
-    // saliency_i = Σ_{j∈N(i)} W_ij Σ_k B_ik e_k B_jk
+    // saliency_i = Σ_{j∈N(i)} W_ij Σ_k B_ik e_k B_jk. faer stores B by columns, so a row of it
+    // is strided by n: copied into rows first, each edge's sum reads two contiguous rows (the
+    // same products in the same order).
+    let mut rows = vec![0.0; n * n];
+    for (k, column) in basis.col_iter().enumerate() {
+        for (i, x) in column.iter().enumerate() {
+            rows[i * n + k] = *x;
+        }
+    }
+    let row = |i: usize| &rows[i * n..(i + 1) * n];
     let mut saliency_small = vec![0.0; n];
     for &(a, b) in &edges {
-        let s: f64 = (0..n).map(|k| basis[(a, k)] * e[k] * basis[(b, k)]).sum();
+        let s: f64 = row(a)
+            .iter()
+            .zip(&e)
+            .zip(row(b))
+            .map(|((x, ek), y)| x * ek * y)
+            .sum();
         let v = weight(a, b) * s;
         saliency_small[a] += v;
         saliency_small[b] += v;
