@@ -83,15 +83,20 @@ pub fn global_rarity_saliency(
             .into_par_iter()
             .map(|v| {
                 let p = work.mesh.positions[v];
+                let own = &z[v][span.clone()];
                 let (mut num, mut den) = (0.0, 0.0);
-                for u in work.within(p, 2.0 * r) {
-                    if u == v {
-                        continue;
+                for near in work.within(p, 2.0 * r).chunks(LANES) {
+                    let apart = squared_distances(own, near, |u| &z[u][span.clone()]);
+                    for (&u, d2) in near.iter().zip(apart) {
+                        if u == v {
+                            continue;
+                        }
+                        let w = work.areas[u]
+                            * (-(work.mesh.positions[u] - p).length_squared() / (2.0 * r * r))
+                                .exp();
+                        num += w * d2.sqrt();
+                        den += w;
                     }
-                    let w = work.areas[u]
-                        * (-(work.mesh.positions[u] - p).length_squared() / (2.0 * r * r)).exp();
-                    num += w * distance(&z[v][span.clone()], &z[u][span.clone()]);
-                    den += w;
                 }
                 if den > 0.0 {
                     num / den
@@ -158,10 +163,61 @@ pub(super) fn patch_descriptors(
     (desc, area)
 }
 
+/// Neighbours whose descriptor distances are summed side by side.
+const LANES: usize = 8;
+
+/// ‖a − row(u)‖² for up to [`LANES`] neighbours u at once, each summed over the coordinates in
+/// order as [`distance`] sums them (the same bits): one sum alone waits on each add, several
+/// interleaved keep the adder busy.
+fn squared_distances<'a>(
+    a: &[f64],
+    near: &[usize],
+    row: impl Fn(usize) -> &'a [f64],
+) -> [f64; LANES] {
+    let mut rows: [&[f64]; LANES] = [a; LANES];
+    for (slot, &u) in rows.iter_mut().zip(near) {
+        *slot = row(u);
+    }
+    let mut sums = [0.0f64; LANES];
+    for (c, x) in a.iter().enumerate() {
+        for (sum, r) in sums.iter_mut().zip(&rows) {
+            let d = x - r[c];
+            *sum += d * d;
+        }
+    }
+    sums
+}
+
 pub(super) fn distance(a: &[f64], b: &[f64]) -> f64 {
     a.iter()
         .zip(b)
         .map(|(x, y)| (x - y) * (x - y))
         .sum::<f64>()
         .sqrt()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Side by side or one at a time, a neighbour's distance is the same bits, for full and
+    /// partial groups of neighbours.
+    #[test]
+    fn interleaved_distances_equal_one_at_a_time() {
+        let rows: Vec<Vec<f64>> = (0..11)
+            .map(|i| {
+                (0..25)
+                    .map(|c| ((i * 31 + c * 7) as f64 * 0.37).sin() * 10f64.powi(c % 5 - 2))
+                    .collect()
+            })
+            .collect();
+        let own = &rows[3];
+        let near: Vec<usize> = (0..11).collect();
+        for group in near.chunks(LANES) {
+            let apart = squared_distances(own, group, |u| &rows[u]);
+            for (&u, d2) in group.iter().zip(apart) {
+                assert_eq!(d2.sqrt().to_bits(), distance(own, &rows[u]).to_bits());
+            }
+        }
+    }
 }
