@@ -15,11 +15,43 @@ fn weighted_mean_std(x: &[f64], weights: Option<&[f64]>) -> (f64, f64) {
     (mean, var.sqrt())
 }
 
+/// A map's weighted mean and standard deviation, computed once for every metric that z-scores
+/// it (LCC and NSS of one map, LCC of many maps against one density).
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct MeanStd {
+    mean: f64,
+    std: f64,
+}
+
+impl MeanStd {
+    pub(crate) fn of(x: &[f64], weights: Option<&[f64]>) -> MeanStd {
+        let (mean, std) = weighted_mean_std(x, weights);
+        MeanStd { mean, std }
+    }
+}
+
 /// Linear correlation coefficient (Pearson), weighted; NaN if either map is constant.
 pub fn lcc(s: &[f64], h: &[f64], weights: Option<&[f64]>) -> f64 {
     assert_eq!(s.len(), h.len());
-    let (ms, ss) = weighted_mean_std(s, weights);
-    let (mh, sh) = weighted_mean_std(h, weights);
+    lcc_of(
+        s,
+        MeanStd::of(s, weights),
+        h,
+        MeanStd::of(h, weights),
+        weights,
+    )
+}
+
+/// [`lcc`] with both maps' statistics already known.
+pub(crate) fn lcc_of(
+    s: &[f64],
+    s_stats: MeanStd,
+    h: &[f64],
+    h_stats: MeanStd,
+    weights: Option<&[f64]>,
+) -> f64 {
+    let (ms, ss) = (s_stats.mean, s_stats.std);
+    let (mh, sh) = (h_stats.mean, h_stats.std);
     if ss == 0.0 || sh == 0.0 {
         return f64::NAN;
     }
@@ -34,14 +66,21 @@ pub fn lcc(s: &[f64], h: &[f64], weights: Option<&[f64]>) -> f64 {
 /// Normalized scanpath saliency: the z-scored map averaged over fixations (a vertex fixated
 /// twice counts twice). NaN for a constant map.
 pub fn nss(s: &[f64], fixated: &[usize], weights: Option<&[f64]>) -> f64 {
-    let (m, sd) = weighted_mean_std(s, weights);
+    nss_of(s, MeanStd::of(s, weights), fixated)
+}
+
+/// [`nss`] with the map's statistics already known.
+pub(crate) fn nss_of(s: &[f64], stats: MeanStd, fixated: &[usize]) -> f64 {
+    let (m, sd) = (stats.mean, stats.std);
     if sd == 0.0 || fixated.is_empty() {
         return f64::NAN;
     }
     fixated.iter().map(|&i| (s[i] - m) / sd).sum::<f64>() / fixated.len() as f64
 }
 
-fn as_distribution(x: &[f64], weights: Option<&[f64]>) -> Option<Vec<f64>> {
+/// The map as a distribution over vertices (weighted, negatives clipped); None when it sums
+/// to zero.
+pub(crate) fn as_distribution(x: &[f64], weights: Option<&[f64]>) -> Option<Vec<f64>> {
     let v: Vec<f64> = (0..x.len())
         .map(|i| weight(weights, i) * x[i].max(0.0))
         .collect();
@@ -51,8 +90,16 @@ fn as_distribution(x: &[f64], weights: Option<&[f64]>) -> Option<Vec<f64>> {
 
 /// Similarity (histogram intersection) of the two maps as distributions, in [0, 1].
 pub fn sim(s: &[f64], h: &[f64], weights: Option<&[f64]>) -> f64 {
-    match (as_distribution(s, weights), as_distribution(h, weights)) {
-        (Some(p), Some(q)) => p.iter().zip(&q).map(|(a, b)| a.min(*b)).sum(),
+    sim_of(
+        as_distribution(s, weights).as_deref(),
+        as_distribution(h, weights).as_deref(),
+    )
+}
+
+/// [`sim`] of two maps already made distributions by [`as_distribution`].
+pub(crate) fn sim_of(p: Option<&[f64]>, q: Option<&[f64]>) -> f64 {
+    match (p, q) {
+        (Some(p), Some(q)) => p.iter().zip(q).map(|(a, b)| a.min(*b)).sum(),
         _ => f64::NAN,
     }
 }
@@ -60,11 +107,19 @@ pub fn sim(s: &[f64], h: &[f64], weights: Option<&[f64]>) -> f64 {
 /// Kullback–Leibler divergence KL(h ‖ s) of the maps as distributions, with cvzoya's
 /// regularizer ε = 2.2204e-16: Σ h log(ε + h / (s + ε)). 0 when equal; lower is better.
 pub fn kl_divergence(s: &[f64], h: &[f64], weights: Option<&[f64]>) -> f64 {
+    kl_divergence_of(
+        as_distribution(s, weights).as_deref(),
+        as_distribution(h, weights).as_deref(),
+    )
+}
+
+/// [`kl_divergence`] of the saliency map `p` and the human map `q`, already distributions.
+pub(crate) fn kl_divergence_of(p: Option<&[f64]>, q: Option<&[f64]>) -> f64 {
     const EPS: f64 = 2.2204e-16;
-    match (as_distribution(s, weights), as_distribution(h, weights)) {
+    match (p, q) {
         (Some(p), Some(q)) => q
             .iter()
-            .zip(&p)
+            .zip(p)
             .map(|(qi, pi)| qi * (EPS + qi / (pi + EPS)).ln())
             .sum(),
         _ => f64::NAN,

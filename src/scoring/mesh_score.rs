@@ -13,8 +13,11 @@ use crate::mesh::Mesh;
 use crate::progress::Progress;
 use crate::scoring::error::ScoreError;
 use crate::scoring::ground_truth::GroundTruth;
+use crate::scoring::map_agreement::{
+    as_distribution, kl_divergence_of, lcc_of, nss_of, sim_of, MeanStd,
+};
 use crate::scoring::surface_blur::{BlurKernel, MeshBlur};
-use crate::scoring::{auc_borji, auc_judd, gini_index, kl_divergence, lcc, nss, sim};
+use crate::scoring::{auc_borji, auc_judd, gini_index, lcc, nss};
 
 /// How vertices count in the metrics.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -309,6 +312,9 @@ struct Target<'a> {
     positive: &'a [bool],
     fixated: &'a [usize],
     density: Vec<f64>,
+    /// The density's statistics and distribution, the same for every map at this blur.
+    density_stats: MeanStd,
+    density_distribution: Option<Vec<f64>>,
     weights: Option<&'a [f64]>,
     params: &'a ScoreParams,
     seen: Option<&'a [bool]>,
@@ -318,16 +324,24 @@ impl Target<'_> {
     /// Every metric of one map; AUC-Judd comes first (the chance band reads it there).
     fn metrics_of(&self, map: &[f64]) -> Vec<(&'static str, f64)> {
         let (w, p) = (self.weights, self.params);
+        // What several metrics of this map share, computed once (the same arithmetic as
+        // each metric alone: the same bits).
+        let stats = MeanStd::of(map, w);
+        let distribution = as_distribution(map, w);
+        let density = self.density_distribution.as_deref();
         let mut metrics = vec![
             ("auc_judd", auc_judd(map, self.positive, w)),
             (
                 "auc_borji",
                 auc_borji(map, self.fixated, w, p.borji_splits, p.seed),
             ),
-            ("lcc", lcc(map, &self.density, w)),
-            ("nss", nss(map, self.fixated, w)),
-            ("sim", sim(map, &self.density, w)),
-            ("kl", kl_divergence(map, &self.density, w)),
+            (
+                "lcc",
+                lcc_of(map, stats, &self.density, self.density_stats, w),
+            ),
+            ("nss", nss_of(map, stats, self.fixated)),
+            ("sim", sim_of(distribution.as_deref(), density)),
+            ("kl", kl_divergence_of(distribution.as_deref(), density)),
             (
                 "gini",
                 gini_index(&map.iter().map(|v| v.max(0.0)).collect::<Vec<_>>()),
@@ -493,13 +507,16 @@ pub fn score_mesh(
             let blurred = blur.blur(&inputs, sigma)?;
             let (method_maps, rest) = blurred.split_at(maps.len());
             let (chance_blurred, subject_maps) = rest.split_at(chance.len());
+            let density = match truth {
+                GroundTruth::VertexMap(m) => m.values.clone(),
+                GroundTruth::Fixations(_) => sum_of_maps(subject_maps.iter(), n),
+            };
             let target = Target {
                 positive: &positive,
                 fixated: &fixated,
-                density: match truth {
-                    GroundTruth::VertexMap(m) => m.values.clone(),
-                    GroundTruth::Fixations(_) => sum_of_maps(subject_maps.iter(), n),
-                },
+                density_stats: MeanStd::of(&density, weights),
+                density_distribution: as_distribution(&density, weights),
+                density,
                 weights,
                 params,
                 seen,
