@@ -2,7 +2,6 @@
 //! by the methods, each mesh scored over the blur grid with its chance band and human ceiling,
 //! the rows in one score CSV, plots per mesh, and the summary JSON with the mean over meshes.
 //! What `meshgaze score` runs, for one mesh or a `--dataset` folder.
-use rayon::prelude::*;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -13,7 +12,7 @@ use crate::mesh::load_mesh;
 use crate::progress::Progress;
 use crate::provenance::{InputFile, Provenance};
 use crate::report::score_plots::write_score_plots;
-use crate::saliency::{compute_saliency_viewed, Method, SmsParams, Viewing};
+use crate::saliency::{compute_saliency_side_by_side, Method, SmsParams, Viewing};
 use crate::scoring::dataset::{mean_summaries, write_score_rows, MeshEntry, SCORE_CSV_HEADER};
 use crate::scoring::{score_mesh, MeshScore, MethodSummary, ScoreParams};
 use crate::stimulus::hold_views::hold_view_exposure;
@@ -116,29 +115,27 @@ fn maps_of(
     if req.methods.contains(&Method::Gaze) {
         refuse_training_object(req.viewing, name)?;
     }
-    // The methods run side by side: each is parallel inside, but none keeps both cores busy
-    // all through (SI's eigendecomposition, SMS's serial steps), so work-stealing across
-    // methods fills the gaps. Each map is the same on any thread count; they are kept in the
-    // order asked for. A method's seconds are then its wall time beside the others. One
-    // bar counts the methods done (their own steps would interleave on a single bar).
+    // The methods run side by side (GR and MR sharing their descriptors): each map is the same
+    // on any thread count, kept in the order asked for; a method's seconds are its wall time
+    // beside the others. One bar counts the methods done (their own steps would interleave on
+    // a single bar).
     progress.start("saliency maps", req.methods.len() as u64);
-    let computed: Vec<_> = req
-        .methods
-        .par_iter()
-        .map(|&method| {
-            let out = compute_saliency_viewed(
-                method,
-                mesh,
-                &SmsParams::default(),
-                req.viewing,
-                &crate::progress::Silent,
-            );
-            progress.advance(1);
+    let computed = compute_saliency_side_by_side(
+        req.methods,
+        mesh,
+        &SmsParams::default(),
+        req.viewing,
+        &|_| progress.advance(1),
+    );
+    progress.finish();
+    let computed: Vec<_> = computed
+        .into_iter()
+        .zip(req.methods.iter())
+        .map(|(out, &method)| {
             out.map(|out| (method, out))
                 .map_err(|e| PipelineError::input(mesh_path, e))
         })
         .collect();
-    progress.finish();
     for result in computed {
         let (method, out) = result?;
         seconds.push((method.name().to_string(), out.seconds));

@@ -6,8 +6,8 @@ use serde::{Deserialize, Serialize};
 use super::lee_mesh_saliency::{lee_mesh_saliency, LeeParams};
 use super::mean_curvature_saliency::mean_curvature_saliency;
 use super::rarity::{
-    global_rarity_saliency, manifold_ranking_saliency, surface_regions_of_interest, GrParams,
-    MrParams, SriParams,
+    global_rarity_saliency_from, manifold_ranking_saliency_from, surface_regions_of_interest,
+    GrParams, MrParams, SriParams, ZernikePatches,
 };
 use super::spectral_irregularity::{spectral_irregularity, SpectralParams};
 use super::view_priors::{centre_prior, up_prior};
@@ -234,6 +234,113 @@ pub fn compute_saliency_viewed(
     compute_nonempty(method, mesh, sms, viewing, progress)
 }
 
+/// Several methods on one mesh side by side, in the order given: each is parallel inside but
+/// leaves a core idle part of the time, and work-stealing across methods fills the gaps. GR
+/// and MR build their working copy, descriptors and patches once when their parameters agree
+/// (the defaults do), which their maps do not depend on (the same values as one at a time);
+/// each one's seconds then count that shared step too. `on_done` is called as each method
+/// finishes.
+pub fn compute_saliency_side_by_side(
+    methods: &[Method],
+    mesh: &Mesh,
+    sms: &SmsParams,
+    viewing: &Viewing,
+    on_done: &(dyn Fn(Method) + Sync),
+) -> Vec<Result<MethodOutput, SaliencyError>> {
+    use rayon::prelude::*;
+    let (gr, mr) = (&viewing.rarity.gr, &viewing.rarity.mr);
+    let pair = match (
+        methods.iter().position(|&m| m == Method::Gr),
+        methods.iter().position(|&m| m == Method::Mr),
+    ) {
+        (Some(g), Some(m)) if gr.zernike_patches() == mr.zernike_patches() => Some((g, m)),
+        _ => None,
+    };
+    let tasks: Vec<Vec<usize>> = (0..methods.len())
+        .filter_map(|i| match pair {
+            Some((g, m)) if i == g => Some(vec![g, m]),
+            Some((_, m)) if i == m => None,
+            _ => Some(vec![i]),
+        })
+        .collect();
+    let mut done: Vec<(usize, Result<MethodOutput, SaliencyError>)> = tasks
+        .par_iter()
+        .flat_map_iter(|task| {
+            let outputs = if let [g, m] = task[..] {
+                rarity_pair(mesh, gr, mr)
+                    .into_iter()
+                    .zip([g, m])
+                    .map(|(out, i)| (i, out))
+                    .collect::<Vec<_>>()
+            } else {
+                let i = task[0];
+                let out = compute_saliency_viewed(
+                    methods[i],
+                    mesh,
+                    sms,
+                    viewing,
+                    &crate::progress::Silent,
+                );
+                vec![(i, out)]
+            };
+            for (i, _) in &outputs {
+                on_done(methods[*i]);
+            }
+            outputs
+        })
+        .collect();
+    done.sort_by_key(|(i, _)| *i);
+    done.into_iter().map(|(_, out)| out).collect()
+}
+
+/// GR's and MR's maps from one working copy, descriptor set and patch set, the two maps side
+/// by side.
+fn rarity_pair(
+    mesh: &Mesh,
+    gr: &GrParams,
+    mr: &MrParams,
+) -> [Result<MethodOutput, SaliencyError>; 2] {
+    let start = Instant::now();
+    let shared = if mesh.triangles.is_empty() {
+        Err(SaliencyError::Compute(
+            "the mesh has no triangles, so there is no surface to compute saliency on".into(),
+        ))
+    } else {
+        ZernikePatches::new(mesh, &gr.zernike_patches())
+    };
+    let shared = match shared {
+        Ok(shared) => shared,
+        Err(e) => {
+            let text = e.to_string();
+            return [
+                Err(SaliencyError::Compute(format!("gr: {text}"))),
+                Err(SaliencyError::Compute(format!("mr: {text}"))),
+            ];
+        }
+    };
+    let shared_seconds = start.elapsed().as_secs_f64();
+    let output = |values: Vec<f64>, report: serde_json::Result<serde_json::Value>, t: Instant| {
+        Ok(MethodOutput {
+            values,
+            report: report.map_err(|e| SaliencyError::Compute(e.to_string()))?,
+            seconds: shared_seconds + t.elapsed().as_secs_f64(),
+        })
+    };
+    let (g, m) = rayon::join(
+        || {
+            let t = Instant::now();
+            let (v, r) = global_rarity_saliency_from(&shared, gr)?;
+            output(v, serde_json::to_value((gr, &r)), t)
+        },
+        || {
+            let t = Instant::now();
+            let (v, r) = manifold_ranking_saliency_from(&shared, mr)?;
+            output(v, serde_json::to_value((mr, &r)), t)
+        },
+    );
+    [g, m]
+}
+
 /// [`compute_saliency_viewed`] on a mesh with triangles; the classical methods' own errors
 /// are text (`SaliencyError::Compute`).
 fn compute_nonempty(
@@ -277,14 +384,16 @@ fn compute_nonempty(
         Method::Gr => {
             progress.start("GR (Wu 2013)", 0);
             let params = &viewing.rarity.gr;
-            let (v, r) = global_rarity_saliency(mesh, params)?;
+            let shared = ZernikePatches::new(mesh, &params.zernike_patches())?;
+            let (v, r) = global_rarity_saliency_from(&shared, params)?;
             progress.finish();
             (v, serde_json::to_value((params, &r)))
         }
         Method::Mr => {
             progress.start("MR (Tao 2015)", 0);
             let params = &viewing.rarity.mr;
-            let (v, r) = manifold_ranking_saliency(mesh, params)?;
+            let shared = ZernikePatches::new(mesh, &params.zernike_patches())?;
+            let (v, r) = manifold_ranking_saliency_from(&shared, params)?;
             progress.finish();
             (v, serde_json::to_value((params, &r)))
         }
@@ -336,5 +445,43 @@ mod tests {
         }
         let e = Method::from_name("curvature").unwrap_err().to_string();
         assert!(e.contains("curvature") && e.contains("sms, mc, ms"), "{e}");
+    }
+
+    /// Side by side, with GR and MR sharing their inputs, every map is the one the method
+    /// computes alone, in the order asked for; GR given MR's inputs built otherwise refuses.
+    #[test]
+    fn side_by_side_maps_equal_one_at_a_time() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("stimuli/meshes/bun_zipper_res2.ply");
+        let (mesh, _) = crate::mesh::load_mesh(&path).unwrap();
+        let mut viewing = Viewing::builtin();
+        viewing.rarity.gr.vertices = 1500;
+        viewing.rarity.mr.vertices = 1500;
+        let methods = [Method::Mr, Method::Mc, Method::Gr];
+        let sms = SmsParams::default();
+        let alone = |m: Method| {
+            compute_saliency_viewed(m, &mesh, &sms, &viewing, &crate::progress::Silent)
+                .unwrap()
+                .values
+        };
+        let bits = |v: &[f64]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        let done = std::sync::atomic::AtomicUsize::new(0);
+        let together = compute_saliency_side_by_side(&methods, &mesh, &sms, &viewing, &|_| {
+            done.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        });
+        assert_eq!(done.into_inner(), 3);
+        for (m, out) in methods.iter().zip(&together) {
+            let out = out.as_ref().unwrap();
+            assert_eq!(bits(&out.values), bits(&alone(*m)), "{}", m.name());
+            assert!(out.seconds > 0.0);
+        }
+        let mut other = viewing.rarity.mr.zernike_patches();
+        other.patches += 1;
+        let shared = ZernikePatches::new(&mesh, &other).unwrap();
+        let refused = global_rarity_saliency_from(&shared, &viewing.rarity.gr).unwrap_err();
+        assert!(
+            refused.to_string().contains("gr: the shared working copy"),
+            "{refused}"
+        );
     }
 }

@@ -12,8 +12,8 @@ pub mod view_priors;
 
 pub use error::SaliencyError;
 pub use method::{
-    compute_saliency, compute_saliency_viewed, Method, MethodOutput, RarityParams, Viewing,
-    PAPER_METHODS,
+    compute_saliency, compute_saliency_side_by_side, compute_saliency_viewed, Method, MethodOutput,
+    RarityParams, Viewing, PAPER_METHODS,
 };
 pub use sms::sparse_metric_saliency::{
     descriptors_at, sparse_metric_saliency, FieldKind, SmsExtras, SmsParams, SmsResult,

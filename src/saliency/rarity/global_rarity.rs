@@ -17,8 +17,8 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::working_copy::{RawSpread, WorkingCopy, WorkingCopyReport};
-use super::zernike_height_map::zernike_descriptors;
-use crate::mesh::over_segmentation::{over_segment, Patches};
+use super::zernike_patches::{ZernikePatches, ZernikePatchesParams};
+use crate::mesh::over_segmentation::Patches;
 use crate::mesh::Mesh;
 
 /// Parameters of GR (Wu et al. 2013); docs/baselines.md gives the choices.
@@ -61,18 +61,47 @@ pub struct GrReport {
     pub descriptor_length: usize,
 }
 
+impl GrParams {
+    /// What GR's working copy, descriptors and patches depend on.
+    pub fn zernike_patches(&self) -> ZernikePatchesParams {
+        ZernikePatchesParams {
+            vertices: self.vertices,
+            radii: self.radii.clone(),
+            order: self.order,
+            patches: self.patches,
+            seed: self.seed,
+        }
+    }
+
+    fn validate(&self) -> Result<(), SaliencyError> {
+        if self.radii.is_empty() || !(0.0..=1.0).contains(&self.local_weight) {
+            return Err(SaliencyError::Invalid(
+                "gr needs at least one radius and local_weight in [0, 1]".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// GR's map of `mesh`, one value per input vertex, with its report.
 pub fn global_rarity_saliency(
     mesh: &Mesh,
     params: &GrParams,
 ) -> Result<(Vec<f64>, GrReport), SaliencyError> {
-    if params.radii.is_empty() || !(0.0..=1.0).contains(&params.local_weight) {
-        return Err(SaliencyError::Invalid(
-            "gr needs at least one radius and local_weight in [0, 1]".into(),
-        ));
-    }
-    let work = WorkingCopy::new(mesh, params.vertices).map_err(SaliencyError::Compute)?;
-    let z = zernike_descriptors(&work, &params.radii, params.order);
+    params.validate()?;
+    let shared = ZernikePatches::new(mesh, &params.zernike_patches())?;
+    global_rarity_saliency_from(&shared, params)
+}
+
+/// [`global_rarity_saliency`] from inputs already built (shared with MR when their
+/// parameters agree).
+pub fn global_rarity_saliency_from(
+    shared: &ZernikePatches,
+    params: &GrParams,
+) -> Result<(Vec<f64>, GrReport), SaliencyError> {
+    params.validate()?;
+    shared.check(&params.zernike_patches(), "gr")?;
+    let (work, z, patches) = (&shared.work, &shared.descriptors, &shared.patches);
     let per_radius = z[0].len() / params.radii.len();
     let n = work.len();
 
@@ -110,8 +139,7 @@ pub fn global_rarity_saliency(
         }
     }
 
-    let patches = over_segment(&work.mesh, &work.graph, params.patches, params.seed);
-    let (patch_desc, patch_area) = patch_descriptors(&work, &patches, &z);
+    let (patch_desc, patch_area) = patch_descriptors(work, patches, z);
     let total_area: f64 = patch_area.iter().sum();
     let rarity: Vec<f64> = (0..patches.len())
         .into_par_iter()

@@ -18,8 +18,8 @@ use serde::{Deserialize, Serialize};
 
 use super::global_rarity::{distance, patch_descriptors};
 use super::working_copy::{RawSpread, WorkingCopy, WorkingCopyReport};
-use super::zernike_height_map::zernike_descriptors;
-use crate::mesh::over_segmentation::{over_segment, Patches};
+use super::zernike_patches::{ZernikePatches, ZernikePatchesParams};
+use crate::mesh::over_segmentation::Patches;
 use crate::mesh::Mesh;
 
 /// Parameters of MR (Tao et al. 2015); docs/baselines.md gives the choices.
@@ -81,27 +81,55 @@ pub struct MrReport {
     pub ranking_residual: f64,
 }
 
+impl MrParams {
+    /// What MR's working copy, descriptors and patches depend on.
+    pub fn zernike_patches(&self) -> ZernikePatchesParams {
+        ZernikePatchesParams {
+            vertices: self.vertices,
+            radii: self.radii.clone(),
+            order: self.order,
+            patches: self.patches,
+            seed: self.seed,
+        }
+    }
+
+    fn validate(&self) -> Result<(), SaliencyError> {
+        if self.radii.is_empty()
+            || !(0.0..1.0).contains(&self.alpha)
+            || !(self.background_fraction > 0.0 && self.background_fraction <= 1.0)
+        {
+            return Err(SaliencyError::Invalid(
+                "mr needs at least one radius, alpha in [0, 1) and background_fraction in (0, 1]"
+                    .into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// MR's map of `mesh`, one value per input vertex, with its report.
 pub fn manifold_ranking_saliency(
     mesh: &Mesh,
     params: &MrParams,
 ) -> Result<(Vec<f64>, MrReport), SaliencyError> {
-    if params.radii.is_empty()
-        || !(0.0..1.0).contains(&params.alpha)
-        || !(params.background_fraction > 0.0 && params.background_fraction <= 1.0)
-    {
-        return Err(SaliencyError::Invalid(
-            "mr needs at least one radius, alpha in [0, 1) and background_fraction in (0, 1]"
-                .into(),
-        ));
-    }
-    let work = WorkingCopy::new(mesh, params.vertices).map_err(SaliencyError::Compute)?;
-    let z = zernike_descriptors(&work, &params.radii, params.order);
-    let patches = over_segment(&work.mesh, &work.graph, params.patches, params.seed);
-    let (desc, area) = patch_descriptors(&work, &patches, &z);
+    params.validate()?;
+    let shared = ZernikePatches::new(mesh, &params.zernike_patches())?;
+    manifold_ranking_saliency_from(&shared, params)
+}
+
+/// [`manifold_ranking_saliency`] from inputs already built (shared with GR when their
+/// parameters agree).
+pub fn manifold_ranking_saliency_from(
+    shared: &ZernikePatches,
+    params: &MrParams,
+) -> Result<(Vec<f64>, MrReport), SaliencyError> {
+    params.validate()?;
+    shared.check(&params.zernike_patches(), "mr")?;
+    let (work, z, patches) = (&shared.work, &shared.descriptors, &shared.patches);
+    let (desc, area) = patch_descriptors(work, patches, z);
     let p = patches.len();
 
-    let distinctness = surround_distinctness(&patches, &desc, &area, params.surround_rings);
+    let distinctness = surround_distinctness(patches, &desc, &area, params.surround_rings);
     let queries = ((params.background_fraction * p as f64).round() as usize).clamp(1, p);
     let mut order: Vec<usize> = (0..p).collect();
     order.sort_by(|&a, &b| distinctness[a].total_cmp(&distinctness[b]).then(a.cmp(&b)));
@@ -120,7 +148,7 @@ pub fn manifold_ranking_saliency(
     let values: Vec<f64> = (0..work.len())
         .map(|v| patch_saliency[patches.label[v] as usize])
         .collect();
-    let values = smooth_on_graph(&work, values, params.smoothing_iterations);
+    let values = smooth_on_graph(work, values, params.smoothing_iterations);
     Ok((
         work.carry_back(&values),
         MrReport {

@@ -9,7 +9,9 @@ pub(crate) mod spin_images;
 pub(crate) mod surface_regions_of_interest;
 pub(crate) mod working_copy;
 pub(crate) mod zernike_height_map;
+pub(crate) mod zernike_patches;
 
-pub use global_rarity::{global_rarity_saliency, GrParams};
-pub use manifold_ranking::{manifold_ranking_saliency, MrParams};
+pub use global_rarity::{global_rarity_saliency, global_rarity_saliency_from, GrParams};
+pub use manifold_ranking::{manifold_ranking_saliency, manifold_ranking_saliency_from, MrParams};
 pub use surface_regions_of_interest::{surface_regions_of_interest, SriParams};
+pub use zernike_patches::{ZernikePatches, ZernikePatchesParams};
