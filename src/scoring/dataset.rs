@@ -67,7 +67,8 @@ pub struct MeshEntry {
     /// Subject splits behind the human ceiling.
     pub human_splits: usize,
     /// Seconds each computed method took (wall time: the methods run side by side, so each
-    /// shares the cores with the others; `meshgaze saliency` or `bench` times one alone).
+    /// shares the cores with the others, and GR and MR each count the working copy,
+    /// descriptors and patches they share; `meshgaze saliency` or `bench` times one alone).
     pub seconds_per_method: Vec<(String, f64)>,
     /// One summary per map.
     pub summaries: Vec<MethodSummary>,
