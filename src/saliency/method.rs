@@ -6,8 +6,9 @@ use serde::{Deserialize, Serialize};
 use super::lee_mesh_saliency::{lee_mesh_saliency, LeeParams};
 use super::mean_curvature_saliency::mean_curvature_saliency;
 use super::rarity::{
-    global_rarity_saliency_from, manifold_ranking_saliency_from, surface_regions_of_interest,
-    GrParams, MrParams, SriParams, ZernikePatches,
+    global_rarity_saliency, global_rarity_saliency_from, manifold_ranking_saliency,
+    manifold_ranking_saliency_from, surface_regions_of_interest, GrParams, MrParams, SriParams,
+    ZernikePatches,
 };
 use super::spectral_irregularity::{spectral_irregularity, SpectralParams};
 use super::view_priors::{centre_prior, up_prior};
@@ -253,7 +254,14 @@ pub fn compute_saliency_side_by_side(
         methods.iter().position(|&m| m == Method::Gr),
         methods.iter().position(|&m| m == Method::Mr),
     ) {
-        (Some(g), Some(m)) if gr.zernike_patches() == mr.zernike_patches() => Some((g, m)),
+        // Invalid parameters go the single-method way, which reports them before any work.
+        (Some(g), Some(m))
+            if gr.zernike_patches() == mr.zernike_patches()
+                && gr.validate().is_ok()
+                && mr.validate().is_ok() =>
+        {
+            Some((g, m))
+        }
         _ => None,
     };
     let tasks: Vec<Vec<usize>> = (0..methods.len())
@@ -384,16 +392,14 @@ fn compute_nonempty(
         Method::Gr => {
             progress.start("GR (Wu 2013)", 0);
             let params = &viewing.rarity.gr;
-            let shared = ZernikePatches::new(mesh, &params.zernike_patches())?;
-            let (v, r) = global_rarity_saliency_from(&shared, params)?;
+            let (v, r) = global_rarity_saliency(mesh, params)?;
             progress.finish();
             (v, serde_json::to_value((params, &r)))
         }
         Method::Mr => {
             progress.start("MR (Tao 2015)", 0);
             let params = &viewing.rarity.mr;
-            let shared = ZernikePatches::new(mesh, &params.zernike_patches())?;
-            let (v, r) = manifold_ranking_saliency_from(&shared, params)?;
+            let (v, r) = manifold_ranking_saliency(mesh, params)?;
             progress.finish();
             (v, serde_json::to_value((params, &r)))
         }
@@ -475,6 +481,27 @@ mod tests {
             assert_eq!(bits(&out.values), bits(&alone(*m)), "{}", m.name());
             assert!(out.seconds > 0.0);
         }
+        // A GR parameter out of range is reported as GR alone reports it; MR still runs.
+        let mut wrong = viewing.clone();
+        wrong.rarity.gr.local_weight = 2.0;
+        let out = compute_saliency_side_by_side(&methods, &mesh, &sms, &wrong, &|_| {});
+        let error_of = |r: &Result<MethodOutput, SaliencyError>| match r {
+            Err(e) => e.to_string(),
+            Ok(_) => "no error".to_string(),
+        };
+        let alone_error = error_of(&compute_saliency_viewed(
+            Method::Gr,
+            &mesh,
+            &sms,
+            &wrong,
+            &crate::progress::Silent,
+        ));
+        assert!(alone_error.contains("local_weight"), "{alone_error}");
+        assert_eq!(error_of(&out[2]), alone_error);
+        assert_eq!(
+            bits(&out[0].as_ref().unwrap().values),
+            bits(&alone(Method::Mr))
+        );
         let mut other = viewing.rarity.mr.zernike_patches();
         other.patches += 1;
         let shared = ZernikePatches::new(&mesh, &other).unwrap();

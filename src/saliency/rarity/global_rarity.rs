@@ -73,7 +73,7 @@ impl GrParams {
         }
     }
 
-    fn validate(&self) -> Result<(), SaliencyError> {
+    pub(crate) fn validate(&self) -> Result<(), SaliencyError> {
         if self.radii.is_empty() || !(0.0..=1.0).contains(&self.local_weight) {
             return Err(SaliencyError::Invalid(
                 "gr needs at least one radius and local_weight in [0, 1]".into(),

@@ -93,7 +93,7 @@ impl MrParams {
         }
     }
 
-    fn validate(&self) -> Result<(), SaliencyError> {
+    pub(crate) fn validate(&self) -> Result<(), SaliencyError> {
         if self.radii.is_empty()
             || !(0.0..1.0).contains(&self.alpha)
             || !(self.background_fraction > 0.0 && self.background_fraction <= 1.0)
