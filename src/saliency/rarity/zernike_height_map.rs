@@ -13,15 +13,18 @@ use super::working_copy::WorkingCopy;
 /// The (n, m) pairs with 0 ≤ m ≤ n ≤ order and n − m even, and R_nm's coefficients.
 pub struct ZernikeBasis {
     terms: Vec<(usize, usize)>,
-    /// For each term, coefficients of ρ^{n-2k}, k = 0..=(n−m)/2.
-    radial: Vec<Vec<f64>>,
+    /// For each term, the coefficients of ρ^{n-2k}, k = 0..=(n−m)/2, with their power of ρ,
+    /// term after term in one table for the loop over a height map's points.
+    flat: Vec<(f64, usize)>,
+    /// Per term: (end of its coefficients in `flat`, m, n + 1).
+    ends: Vec<(usize, usize, f64)>,
 }
 
 impl ZernikeBasis {
     pub fn new(order: usize) -> ZernikeBasis {
         let fact = |k: usize| (1..=k).fold(1.0f64, |f, i| f * i as f64);
         let mut terms = Vec::new();
-        let mut radial = Vec::new();
+        let mut radial: Vec<Vec<f64>> = Vec::new();
         for n in 0..=order {
             for m in (n % 2..=n).step_by(2) {
                 terms.push((n, m));
@@ -36,19 +39,31 @@ impl ZernikeBasis {
                 );
             }
         }
-        ZernikeBasis { terms, radial }
+        let mut flat = Vec::new();
+        let mut ends = Vec::new();
+        for (&(n, m), coefficients) in terms.iter().zip(&radial) {
+            flat.extend(
+                coefficients
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &c)| (c, n - 2 * k)),
+            );
+            ends.push((flat.len(), m, (n + 1) as f64));
+        }
+        ZernikeBasis { terms, flat, ends }
     }
 
     pub fn len(&self) -> usize {
         self.terms.len()
     }
 
+    /// R_nm(ρ) of one term from the flat table, as `describe` sums it.
+    #[cfg(test)]
     fn radial_value(&self, term: usize, rho_powers: &[f64]) -> f64 {
-        let (n, _) = self.terms[term];
-        self.radial[term]
+        let from = if term == 0 { 0 } else { self.ends[term - 1].0 };
+        self.flat[from..self.ends[term].0]
             .iter()
-            .enumerate()
-            .map(|(k, c)| c * rho_powers[n - 2 * k])
+            .map(|&(c, power)| c * rho_powers[power])
             .sum()
     }
 
@@ -90,11 +105,18 @@ impl ZernikeBasis {
                 let (pc, ps) = phase[m - 1];
                 phase[m] = (pc * c - ps * s, pc * s + ps * c);
             }
-            for (t, &(n, m)) in self.terms.iter().enumerate() {
-                let r = self.radial_value(t, &rho_powers) * h * a * (n + 1) as f64;
+            let mut from = 0;
+            for ((&(to, m, scale), re), im) in self.ends.iter().zip(&mut re).zip(&mut im) {
+                // As `radial_value` sums (f64's sum starts at −0.0).
+                let mut radial = -0.0;
+                for &(c, power) in &self.flat[from..to] {
+                    radial += c * rho_powers[power];
+                }
+                from = to;
+                let r = radial * h * a * scale;
                 let (pc, ps) = phase[m];
-                re[t] += r * pc;
-                im[t] -= r * ps;
+                *re += r * pc;
+                *im -= r * ps;
             }
         }
         if weight <= 0.0 {
