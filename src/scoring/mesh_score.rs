@@ -587,27 +587,32 @@ mod tests {
         assert!(human_splits(1, 10, 1).is_empty());
     }
 
+    /// `count` fixations of `subjects` subjects taking turns, on every `stride`-th vertex.
+    fn spread_fixations(mesh: &Mesh, subjects: usize, count: usize, stride: usize) -> GroundTruth {
+        use crate::scoring::ground_truth::{Fixation, FixationTruth};
+        let n = mesh.positions.len();
+        let names: Vec<String> = (0..subjects).map(|s| format!("s{s}")).collect();
+        let fixations: Vec<Fixation> = (0..count)
+            .map(|i| Fixation {
+                subject: names[i % subjects].clone(),
+                vertex: (i * stride) % n,
+            })
+            .collect();
+        GroundTruth::Fixations(FixationTruth {
+            rows: fixations.len(),
+            fixations,
+            subjects: names,
+            rows_not_on_mesh: Default::default(),
+        })
+    }
+
     /// The truth build keeps only the human rows and scores with one chance map: they must not
     /// depend on how many there are.
     #[test]
     fn human_rows_do_not_depend_on_the_chance_band() {
         use crate::progress::Silent;
-        use crate::scoring::ground_truth::{Fixation, FixationTruth};
         let mesh = crate::mesh::test_meshes::icosphere(1.0, 3);
-        let n = mesh.positions.len();
-        let subjects: Vec<String> = (0..6).map(|s| format!("s{s}")).collect();
-        let fixations: Vec<Fixation> = (0..60)
-            .map(|i| Fixation {
-                subject: subjects[i % 6].clone(),
-                vertex: (i * 37) % n,
-            })
-            .collect();
-        let truth = GroundTruth::Fixations(FixationTruth {
-            rows: fixations.len(),
-            fixations,
-            subjects,
-            rows_not_on_mesh: Default::default(),
-        });
+        let truth = spread_fixations(&mesh, 6, 60, 37);
         let human_rows = |chance_maps: usize| {
             let params = ScoreParams {
                 chance_maps,
@@ -632,22 +637,8 @@ mod tests {
     #[test]
     fn rows_are_the_same_bytes_on_one_or_three_threads() {
         use crate::progress::Silent;
-        use crate::scoring::ground_truth::{Fixation, FixationTruth};
         let mesh = crate::mesh::test_meshes::icosphere(1.0, 3);
-        let n = mesh.positions.len();
-        let subjects: Vec<String> = (0..4).map(|s| format!("s{s}")).collect();
-        let fixations: Vec<Fixation> = (0..40)
-            .map(|i| Fixation {
-                subject: subjects[i % 4].clone(),
-                vertex: (i * 53) % n,
-            })
-            .collect();
-        let truth = GroundTruth::Fixations(FixationTruth {
-            rows: fixations.len(),
-            fixations,
-            subjects,
-            rows_not_on_mesh: Default::default(),
-        });
+        let truth = spread_fixations(&mesh, 4, 40, 53);
         let height: Vec<f64> = mesh.positions.iter().map(|p| p.z).collect();
         let maps = vec![("height".to_string(), height)];
         let params = ScoreParams {

@@ -100,8 +100,7 @@ pub fn global_rarity_saliency_from(
     params: &GrParams,
 ) -> Result<(Vec<f64>, GrReport), SaliencyError> {
     params.validate()?;
-    shared.check(&params.zernike_patches(), "gr")?;
-    let (work, z, patches) = (&shared.work, &shared.descriptors, &shared.patches);
+    let (work, z, patches) = shared.built_with(&params.zernike_patches(), "gr")?;
     let per_radius = z[0].len() / params.radii.len();
     let n = work.len();
 

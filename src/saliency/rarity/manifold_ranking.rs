@@ -124,8 +124,7 @@ pub fn manifold_ranking_saliency_from(
     params: &MrParams,
 ) -> Result<(Vec<f64>, MrReport), SaliencyError> {
     params.validate()?;
-    shared.check(&params.zernike_patches(), "mr")?;
-    let (work, z, patches) = (&shared.work, &shared.descriptors, &shared.patches);
+    let (work, z, patches) = shared.built_with(&params.zernike_patches(), "mr")?;
     let (desc, area) = patch_descriptors(work, patches, z);
     let p = patches.len();
 

@@ -26,9 +26,9 @@ pub struct ZernikePatchesParams {
 /// The working copy, its descriptors (one row per working vertex, radii concatenated) and
 /// its patches, with the parameters they were built with.
 pub struct ZernikePatches {
-    pub(crate) work: WorkingCopy,
-    pub(crate) descriptors: Vec<Vec<f64>>,
-    pub(crate) patches: Patches,
+    work: WorkingCopy,
+    descriptors: Vec<Vec<f64>>,
+    patches: Patches,
     params: ZernikePatchesParams,
 }
 
@@ -51,14 +51,15 @@ impl ZernikePatches {
         &self.params
     }
 
-    /// An error unless these were built with `wanted` (a method given another's inputs).
-    pub(crate) fn check(
+    /// The working copy, descriptors and patches, or an error unless they were built with
+    /// `wanted` (a method given another's inputs).
+    pub(crate) fn built_with(
         &self,
         wanted: &ZernikePatchesParams,
         method: &str,
-    ) -> Result<(), SaliencyError> {
+    ) -> Result<(&WorkingCopy, &[Vec<f64>], &Patches), SaliencyError> {
         if &self.params == wanted {
-            Ok(())
+            Ok((&self.work, &self.descriptors, &self.patches))
         } else {
             Err(SaliencyError::Invalid(format!(
                 "{method}: the shared working copy, descriptors and patches were built with {:?}, \
