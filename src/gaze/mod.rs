@@ -19,6 +19,7 @@ pub(crate) mod pupil_labs;
 pub mod quality;
 pub mod recording;
 pub mod stimulus_messages;
+pub(crate) mod table_scan;
 pub mod text;
 pub(crate) mod tobii;
 pub(crate) mod tobii_lists;

@@ -26,9 +26,8 @@ use super::recording::{
     Event, EventKind, Eye, EyeSample, GazeError, GazeFormat, Header, Message, Recording,
     RowAccount, Sample, SharedLabels, SharedNames,
 };
-use super::text::{
-    decode, lines, number, split_into, split_wanted, split_wanted_unquoted, Separator,
-};
+use super::table_scan::{body_lines, first_line, for_each_row, lines_estimate, Row};
+use super::text::{number, plain_decimal, split_into, trimmed, Separator};
 
 /// Which Tobii exporter wrote the table.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -77,8 +76,8 @@ struct Columns {
 }
 
 impl Columns {
-    /// Which of `n` columns the reader looks at (and the one past the last, where Studio's
-    /// trailing TAB puts an empty field).
+    /// Which of `n` columns the reader looks at (Studio's trailing TAB, an empty field past
+    /// the last column, is checked as the row's last field).
     fn wanted(&self, n: usize) -> Vec<bool> {
         let pairs = [
             self.gaze,
@@ -103,16 +102,15 @@ impl Columns {
             self.participant,
             self.screen_text,
             self.recording_duration,
-            Some(n),
         ];
-        let mut wanted = vec![false; n + 1];
+        let mut wanted = vec![false; n];
         let used = pairs
             .into_iter()
             .flatten()
             .flatten()
             .chain(singles.into_iter().flatten())
             .chain(self.stimulus.iter().copied());
-        for i in used.filter(|&i| i <= n) {
+        for i in used.filter(|&i| i < n) {
             wanted[i] = true;
         }
         wanted
@@ -237,6 +235,10 @@ fn fields_into<'a>(line: &'a str, sep: Separator, out: &mut Vec<(usize, &'a str)
 
 /// A row's time stamp, in the file's unit.
 fn raw_time(field: &str) -> Option<f64> {
+    // Nearly every time stamp is a bare decimal, read without the general parser.
+    if let Some(v) = plain_decimal(field) {
+        return (v.is_finite() && v >= 0.0).then_some(v);
+    }
     let f = field.trim();
     let v: f64 = match f.parse() {
         Ok(v) => v,
@@ -282,7 +284,7 @@ struct Reader<'a> {
 impl Reader<'_> {
     fn get<'b>(&self, f: &[(usize, &'b str)], i: Option<usize>) -> Option<&'b str> {
         i.and_then(|i| f.get(i))
-            .map(|x| x.1.trim())
+            .map(|x| trimmed(x.1))
             .filter(|v| !v.is_empty())
     }
 
@@ -337,31 +339,26 @@ impl Reader<'_> {
         }))
     }
 
-    fn row<'l>(
-        &mut self,
-        no: usize,
-        line: &'l str,
-        wanted: &[bool],
-        f: &mut Vec<(usize, &'l str)>,
-    ) {
+    fn row(&mut self, row: Row<'_>) {
+        let (no, line) = (row.no, row.line);
         if line.trim().is_empty() {
             self.rows.blank_lines += 1;
             return;
         }
-        let count = if self.sep == Separator::Comma {
-            // A quoted CSV field may hold a comma: such a line is split field by field.
-            split_wanted_unquoted(line, self.sep, wanted, f).unwrap_or_else(|| {
-                fields_into(line, self.sep, f);
-                f.len()
-            })
-        } else {
-            split_wanted(line, self.sep, wanted, f)
+        // A quoted CSV field may hold a comma: such a line is split field by field.
+        let mut quoted_fields = Vec::new();
+        let (f, count, last) = match row.fields {
+            Some(f) => (&f[..row.count.min(f.len())], row.count, row.last),
+            None => {
+                fields_into(line, self.sep, &mut quoted_fields);
+                let last = quoted_fields.last().map_or("", |x| x.1);
+                (&quoted_fields[..], quoted_fields.len(), last)
+            }
         };
-        let f = &f[..count.min(f.len())];
         let n = self.names.len();
         // Studio ends lines with a TAB (an empty last column): one field more or fewer is that.
         let ok_len = count == n
-            || (count == n + 1 && f[n].1.trim().is_empty())
+            || (count == n + 1 && last.trim().is_empty())
             || (count + 1 == n && self.names[n - 1].is_empty());
         if !ok_len {
             let reason = format!("row with a field count other than the header's {n}");
@@ -548,7 +545,7 @@ impl Reader<'_> {
     fn infer_scale(
         names: &[String],
         c: &Columns,
-        body: &[(usize, &str)],
+        body: &[u8],
         sep: Separator,
         dialect: Dialect,
     ) -> (f64, String) {
@@ -563,21 +560,20 @@ impl Reader<'_> {
             return (1000.0, "ms (Tobii Studio's unit)".into());
         }
         let time_of = |l: &str| fields(l, sep).get(c.time).and_then(|x| raw_time(x.1));
-        let times: Vec<f64> = body
-            .iter()
+        let times: Vec<f64> = body_lines(body)
             .take(5000)
-            .filter_map(|(_, l)| time_of(l))
+            .filter_map(|l| time_of(&l))
             .collect();
         // The whole file's span: its first and its last row with a time.
-        let first = body.iter().find_map(|(_, l)| time_of(l));
-        let last = body.iter().rev().find_map(|(_, l)| time_of(l));
+        let first = body_lines(body).find_map(|l| time_of(&l));
+        let last = body_lines(body).rev().find_map(|l| time_of(&l));
         let span = match (first, last) {
             (Some(a), Some(b)) => b - a,
             _ => 0.0,
         };
         let duration_ms = c.recording_duration.and_then(|i| {
-            body.iter().find_map(|(_, l)| {
-                fields(l, sep)
+            body_lines(body).find_map(|l| {
+                fields(&l, sep)
                     .get(i)
                     .and_then(|x| number(x.1, sep).ok().flatten())
             })
@@ -717,15 +713,13 @@ impl Reader<'_> {
 
 /// Reads a Tobii Pro Lab or Studio data export; `path` names it in messages.
 pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
-    let text = decode(bytes);
-    let all = lines(&text);
-    let Some(&(_, first)) = all.first() else {
+    let Some((first, body_start)) = first_line(bytes) else {
         return Err(GazeError::File {
             path: path.to_string(),
             message: "the file is empty".into(),
         });
     };
-    let Some(dialect) = dialect_of(first) else {
+    let Some(dialect) = dialect_of(&first) else {
         return Err(GazeError::At {
             path: path.to_string(),
             line: 1,
@@ -733,13 +727,14 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             message: "not a Tobii Pro Lab or Studio data export: the header names neither `Recording timestamp` and `Gaze point X` (Pro Lab) nor `RecordingTimestamp` and `GazePointX (ADCSpx)` (Studio)".into(),
         });
     };
-    let sep = Separator::sniff(first);
-    let names: Vec<String> = fields(first, sep)
+    let sep = Separator::sniff(&first);
+    let names: Vec<String> = fields(&first, sep)
         .iter()
         .map(|(_, c)| c.trim().to_string())
         .collect();
     let c = columns_of(&names, dialect, path)?;
-    let (scale, time_note) = Reader::infer_scale(&names, &c, &all[1..], sep, dialect);
+    let body = &bytes[body_start..];
+    let (scale, time_note) = Reader::infer_scale(&names, &c, body, sep, dialect);
     let mut r = Reader {
         path,
         dialect,
@@ -748,7 +743,6 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         c,
         scale,
         rows: RowAccount {
-            lines: all.len(),
             header_lines: 1,
             ..Default::default()
         },
@@ -759,7 +753,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             }),
             ..Default::default()
         },
-        samples: Vec::with_capacity(all.len()),
+        samples: Vec::with_capacity(lines_estimate(body)),
         messages: Vec::new(),
         fixations: Vec::new(),
         first_named: BTreeMap::new(),
@@ -769,10 +763,9 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         labels: SharedLabels::default(),
     };
     let wanted = r.c.wanted(r.names.len());
-    let mut fields = Vec::with_capacity(r.names.len() + 1);
-    for &(no, line) in &all[1..] {
-        r.row(no, line, &wanted, &mut fields);
-    }
+    // Quotes stop the fast split only in CSV: a TAB export's `"` is an ordinary byte.
+    let csv = sep == Separator::Comma;
+    r.rows.lines = for_each_row(bytes, body_start, 2, sep, &wanted, csv, |row| r.row(row));
     r.header.sample_rate_hz = super::recording::median_rate_hz(&r.samples, 1);
     Ok(r.finish(time_note))
 }
