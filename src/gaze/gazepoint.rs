@@ -18,7 +18,8 @@ use super::recording::{
     Event, EventKind, Eye, EyeSample, GazeError, GazeFormat, Header, Message, Recording,
     RowAccount, Sample, SharedNames,
 };
-use super::text::{decode, lines, number, split, split_wanted, Separator};
+use super::table_scan::{first_line, for_each_row, lines_estimate};
+use super::text::{number, split, Separator};
 
 /// Whether the first line is a Gazepoint Analysis export's header.
 pub(crate) fn looks_like(first_line: &str) -> bool {
@@ -243,10 +244,10 @@ fn fixation_events(
 
 /// The header line's separator, column names and the columns read.
 fn header_row(
-    all: &[(usize, &str)],
+    first: Option<&str>,
     path: &str,
 ) -> Result<(Separator, Vec<String>, Columns), GazeError> {
-    let Some(&(_, first)) = all.first() else {
+    let Some(first) = first else {
         return Err(GazeError::File {
             path: path.to_string(),
             message: "the file is empty".into(),
@@ -278,9 +279,9 @@ fn gaze_sample(time_us: i64, left: Option<EyeSample>, right: Option<EyeSample>) 
 
 /// Reads a Gazepoint Analysis export; `path` names it in messages.
 pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
-    let text = decode(bytes);
-    let all = lines(&text);
-    let (sep, names, c) = header_row(&all, path)?;
+    let head = first_line(bytes);
+    let (sep, names, c) = header_row(head.as_ref().map(|(l, _)| &**l), path)?;
+    let body_start = head.map_or(bytes.len(), |(_, next)| next);
     let header = Header {
         banner: Some("Gazepoint Analysis export".into()),
         date: start_of(&names[c.time]),
@@ -288,32 +289,31 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         ..Header::default()
     };
     let mut rows = RowAccount {
-        lines: all.len(),
         header_lines: 1,
         ..Default::default()
     };
-    let mut samples = Vec::with_capacity(all.len());
+    let mut samples = Vec::with_capacity(lines_estimate(&bytes[body_start..]));
     let mut messages = Vec::new();
     let mut fixations: BTreeMap<u64, Open> = BTreeMap::new();
     let mut first_named: BTreeMap<String, i64> = BTreeMap::new();
     let mut counts: Vec<f64> = Vec::new();
     let n = names.len();
     let wanted = c.wanted(n);
-    let mut buffer = Vec::with_capacity(n + 1);
     let mut stimulus_names = SharedNames::default();
-    for &(no, line) in &all[1..] {
+    // A `"` is an ordinary byte in Gazepoint's tables (it writes no quoted fields).
+    rows.lines = for_each_row(bytes, body_start, 2, sep, &wanted, false, |line| {
+        let (no, count, line, fields) = (line.no, line.count, line.line, line.fields);
         if line.trim().is_empty() {
             rows.blank_lines += 1;
-            continue;
+            return;
         }
-        let count = split_wanted(line, sep, &wanted, &mut buffer);
-        let f = &buffer[..count.min(buffer.len())];
+        let f = fields.map_or(&[][..], |f| &f[..count.min(f.len())]);
         // Gazepoint ends every line with a comma: the header's last name is empty.
         let fits = count == n || (count + 1 == n && names[n - 1].is_empty());
         if !fits {
             let reason = format!("row with a field count other than the header's {n}");
             rows.reject(&reason, no, 1, line);
-            continue;
+            return;
         }
         let text_of = |i: Option<usize>| {
             i.and_then(|i| f.get(i))
@@ -333,12 +333,12 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             Err(i) => {
                 let reason = format!("`{}` is not a number", names[i]);
                 rows.reject(&reason, no, f[i].0, line);
-                continue;
+                return;
             }
         };
         if t < 0.0 {
             rows.reject("negative TIME", no, f[c.time].0, line);
-            continue;
+            return;
         }
         let t_us = (t * 1e6).round() as i64;
         if let Some(k) = count {
@@ -377,7 +377,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             stimulus,
             ..gaze_sample(t_us, left, right)
         });
-    }
+    });
     let events = fixation_events(fixations, &first_named);
     let mut rec = Recording {
         file: path.to_string(),

@@ -26,6 +26,7 @@ use super::recording::{
     Event, EventKind, Eye, EyeSample, GazeError, GazeFormat, Header, Message, Recording,
     RowAccount, Sample,
 };
+use super::table_scan::{first_line, for_each_row, lines_estimate};
 use super::text::{decode, lines, split, Separator};
 
 /// Pupil Player's default minimum data confidence.
@@ -177,8 +178,8 @@ fn columns_of(table: Table, names: &[String], path: &str) -> Result<Columns, Gaz
 
 /// The table a file's header line starts and its column names; world-camera tables are
 /// refused here.
-fn table_and_names(all: &[(usize, &str)], path: &str) -> Result<(Table, Vec<String>), GazeError> {
-    let Some(&(_, first)) = all.first() else {
+fn table_and_names(first: Option<&str>, path: &str) -> Result<(Table, Vec<String>), GazeError> {
+    let Some(first) = first else {
         return Err(GazeError::File {
             path: path.to_string(),
             message: "the file is empty".into(),
@@ -301,9 +302,9 @@ fn on_surface_of(
 
 /// Reads a Pupil Labs surface export; `path` names it in messages.
 pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
-    let text = decode(bytes);
-    let all = lines(&text);
-    let (table, names) = table_and_names(&all, path)?;
+    let head = first_line(bytes);
+    let (table, names) = table_and_names(head.as_ref().map(|(l, _)| &**l), path)?;
+    let body_start = head.map_or(bytes.len(), |(_, next)| next);
     let cloud = matches!(
         table,
         Table::CloudSurfaceGaze | Table::CloudSurfaceFixations
@@ -320,25 +321,32 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     } = columns_of(table, &names, path)?;
     let to_us = |v: f64| time_us(v, cloud);
     let mut rows = RowAccount {
-        lines: all.len(),
         header_lines: 1,
         ..Default::default()
     };
-    let mut samples = Vec::with_capacity(all.len());
+    let mut samples = Vec::with_capacity(lines_estimate(&bytes[body_start..]));
     let mut fixations: BTreeMap<String, Open> = BTreeMap::new();
     let mut order: Vec<String> = Vec::new();
     let mut low_confidence = 0usize;
     let n = names.len();
-    for &(no, line) in &all[1..] {
+    let mut wanted = vec![false; n];
+    let used = [Some(time), Some(x), Some(y), on, confidence, fixation_id, duration, end];
+    for i in used.into_iter().flatten().filter(|&i| i < n) {
+        wanted[i] = true;
+    }
+    // Pupil's exports hold no quoted field; a `"` is an ordinary byte, as before.
+    rows.lines = for_each_row(bytes, body_start, 2, Separator::Comma, &wanted, false, |row| {
+        let (no, line, count) = (row.no, row.line, row.count);
         if line.trim().is_empty() {
             rows.blank_lines += 1;
-            continue;
+            return;
         }
-        let f = split(line, Separator::Comma);
-        if f.len() != n {
+        // Only the wanted columns' fields are filled; a row of the header's width has them.
+        let f = row.fields.unwrap_or(&[]);
+        if count != n || f.len() != n {
             let reason = format!("row with a field count other than the header's {n}");
             rows.reject(&reason, no, 1, line);
-            continue;
+            return;
         }
         let num = |i: usize| f[i].1.trim().parse::<f64>().ok().filter(|v| v.is_finite());
         let Some(t) = num(time) else {
@@ -348,7 +356,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
                 f[time].0,
                 line,
             );
-            continue;
+            return;
         };
         let (px, py) = (num(x), num(y));
         let on_surface = match on_surface_of(on, &f, px, py) {
@@ -356,7 +364,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
             Err(i) => {
                 let reason = format!("`{}` is neither True nor False", names[i]);
                 rows.reject(&reason, no, f[i].0, line);
-                continue;
+                return;
             }
         };
         let conf = confidence.and_then(num);
@@ -382,14 +390,14 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
                 point,
             );
             rows.events += 1;
-            continue;
+            return;
         }
         let confident = conf.is_none_or(|c| c >= MIN_CONFIDENCE);
         low_confidence += (!confident) as usize;
         let valid = on_surface && confident && pos.is_some();
         rows.samples += 1;
         samples.push(surface_sample(t_us, pos.filter(|_| valid)));
-    }
+    });
     // Pupil Player writes gaze rows per world frame, not in gaze-time order.
     samples.sort_by_key(|s| s.time_us);
     let (mut events, off_surface) = fixation_events(&order, &fixations);
