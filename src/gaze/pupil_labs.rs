@@ -330,74 +330,91 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
     let mut low_confidence = 0usize;
     let n = names.len();
     let mut wanted = vec![false; n];
-    let used = [Some(time), Some(x), Some(y), on, confidence, fixation_id, duration, end];
+    let used = [
+        Some(time),
+        Some(x),
+        Some(y),
+        on,
+        confidence,
+        fixation_id,
+        duration,
+        end,
+    ];
     for i in used.into_iter().flatten().filter(|&i| i < n) {
         wanted[i] = true;
     }
     // Pupil's exports hold no quoted field; a `"` is an ordinary byte, as before.
-    rows.lines = for_each_row(bytes, body_start, 2, Separator::Comma, &wanted, false, |row| {
-        let (no, line, count) = (row.no, row.line, row.count);
-        if line.trim().is_empty() {
-            rows.blank_lines += 1;
-            return;
-        }
-        // Only the wanted columns' fields are filled; a row of the header's width has them.
-        let f = row.fields.unwrap_or(&[]);
-        if count != n || f.len() != n {
-            let reason = format!("row with a field count other than the header's {n}");
-            rows.reject(&reason, no, 1, line);
-            return;
-        }
-        let num = |i: usize| f[i].1.trim().parse::<f64>().ok().filter(|v| v.is_finite());
-        let Some(t) = num(time) else {
-            rows.reject(
-                &format!("`{}` is not a number", names[time]),
-                no,
-                f[time].0,
-                line,
-            );
-            return;
-        };
-        let (px, py) = (num(x), num(y));
-        let on_surface = match on_surface_of(on, &f, px, py) {
-            Ok(b) => b,
-            Err(i) => {
-                let reason = format!("`{}` is neither True nor False", names[i]);
-                rows.reject(&reason, no, f[i].0, line);
+    rows.lines = for_each_row(
+        bytes,
+        body_start,
+        2,
+        Separator::Comma,
+        &wanted,
+        false,
+        |row| {
+            let (no, line, count) = (row.no, row.line, row.count);
+            if line.trim().is_empty() {
+                rows.blank_lines += 1;
                 return;
             }
-        };
-        let conf = confidence.and_then(num);
-        let t_us = to_us(t);
-        // Core's surface origin is bottom-left, Cloud's top-left; the record model's is top-left.
-        let pos = match (px, py) {
-            (Some(a), Some(b)) => Some((a, if cloud { b } else { 1.0 - b })),
-            _ => None,
-        };
-        if let Some(id_col) = fixation_id {
-            let end_us = match (end.and_then(num), duration.and_then(num)) {
-                (Some(e), _) => to_us(e),
-                (None, Some(d_ms)) => t_us.saturating_add((d_ms * 1000.0).round() as i64),
-                (None, None) => t_us,
+            // Only the wanted columns' fields are filled; a row of the header's width has them.
+            let f = row.fields.unwrap_or(&[]);
+            if count != n || f.len() != n {
+                let reason = format!("row with a field count other than the header's {n}");
+                rows.reject(&reason, no, 1, line);
+                return;
+            }
+            let num = |i: usize| f[i].1.trim().parse::<f64>().ok().filter(|v| v.is_finite());
+            let Some(t) = num(time) else {
+                rows.reject(
+                    &format!("`{}` is not a number", names[time]),
+                    no,
+                    f[time].0,
+                    line,
+                );
+                return;
             };
-            let point = pos.filter(|_| on_surface);
-            add_fixation_row(
-                &mut fixations,
-                &mut order,
-                f[id_col].1.trim(),
-                t_us,
-                end_us,
-                point,
-            );
-            rows.events += 1;
-            return;
-        }
-        let confident = conf.is_none_or(|c| c >= MIN_CONFIDENCE);
-        low_confidence += (!confident) as usize;
-        let valid = on_surface && confident && pos.is_some();
-        rows.samples += 1;
-        samples.push(surface_sample(t_us, pos.filter(|_| valid)));
-    });
+            let (px, py) = (num(x), num(y));
+            let on_surface = match on_surface_of(on, &f, px, py) {
+                Ok(b) => b,
+                Err(i) => {
+                    let reason = format!("`{}` is neither True nor False", names[i]);
+                    rows.reject(&reason, no, f[i].0, line);
+                    return;
+                }
+            };
+            let conf = confidence.and_then(num);
+            let t_us = to_us(t);
+            // Core's surface origin is bottom-left, Cloud's top-left; the record model's is top-left.
+            let pos = match (px, py) {
+                (Some(a), Some(b)) => Some((a, if cloud { b } else { 1.0 - b })),
+                _ => None,
+            };
+            if let Some(id_col) = fixation_id {
+                let end_us = match (end.and_then(num), duration.and_then(num)) {
+                    (Some(e), _) => to_us(e),
+                    (None, Some(d_ms)) => t_us.saturating_add((d_ms * 1000.0).round() as i64),
+                    (None, None) => t_us,
+                };
+                let point = pos.filter(|_| on_surface);
+                add_fixation_row(
+                    &mut fixations,
+                    &mut order,
+                    f[id_col].1.trim(),
+                    t_us,
+                    end_us,
+                    point,
+                );
+                rows.events += 1;
+                return;
+            }
+            let confident = conf.is_none_or(|c| c >= MIN_CONFIDENCE);
+            low_confidence += (!confident) as usize;
+            let valid = on_surface && confident && pos.is_some();
+            rows.samples += 1;
+            samples.push(surface_sample(t_us, pos.filter(|_| valid)));
+        },
+    );
     // Pupil Player writes gaze rows per world frame, not in gaze-time order.
     samples.sort_by_key(|s| s.time_us);
     let (mut events, off_surface) = fixation_events(&order, &fixations);

@@ -275,6 +275,8 @@ struct Reader<'a> {
     fixations: Vec<OpenFixation>,
     /// First time each stimulus is named, and the start events naming it.
     first_named: BTreeMap<String, i64>,
+    /// The stimulus copy of the last row that named one (already in `first_named`).
+    last_named: Option<Arc<str>>,
     start_events: BTreeMap<String, i64>,
     other_sensors: BTreeMap<String, usize>,
     names_seen: SharedNames,
@@ -378,8 +380,18 @@ impl Reader<'_> {
         self.screen_of(f);
         let stimulus = self.stimulus_of(f);
         if let Some(s) = &stimulus {
-            if !self.first_named.contains_key(&**s) {
-                self.first_named.insert(s.to_string(), t_us);
+            // Consecutive rows share one copy of their name (SharedNames): a row naming the
+            // previous row's copy has nothing new for the map, whose lookup would compare
+            // strings on each of a million rows.
+            let same_as_before = self
+                .last_named
+                .as_ref()
+                .is_some_and(|last| Arc::ptr_eq(last, s));
+            if !same_as_before {
+                if !self.first_named.contains_key(&**s) {
+                    self.first_named.insert(s.to_string(), t_us);
+                }
+                self.last_named = Some(s.clone());
             }
         }
         let event = self.get(f, self.c.event).map(str::to_string);
@@ -757,6 +769,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
         messages: Vec::new(),
         fixations: Vec::new(),
         first_named: BTreeMap::new(),
+        last_named: None,
         start_events: BTreeMap::new(),
         other_sensors: BTreeMap::new(),
         names_seen: SharedNames::default(),
