@@ -47,7 +47,8 @@ pub struct BenchArgs {
     /// Skip the stimulus benchmark (a 48 s 1680x1050 video of the 50k armadillo, ~30 s).
     #[arg(long)]
     pub skip_stimulus: bool,
-    /// Only the recording readers' parse speed (SMI format A, EyeLink ASC), a few seconds.
+    /// Only the recording readers' parse speed (SMI format A, EyeLink ASC, Tobii Pro Lab,
+    /// Gazepoint, Pupil Core surface; each against SMI A per sample), a few seconds.
     #[arg(long, conflicts_with_all = ["case", "method", "csv"])]
     pub parse_only: bool,
     /// Only the scoring row: the 50k armadillo's seven maps scored against an 8-subject,
