@@ -375,7 +375,7 @@ pub fn read(bytes: &[u8], path: &str) -> Result<Recording, GazeError> {
                 return;
             };
             let (px, py) = (num(x), num(y));
-            let on_surface = match on_surface_of(on, &f, px, py) {
+            let on_surface = match on_surface_of(on, f, px, py) {
                 Ok(b) => b,
                 Err(i) => {
                     let reason = format!("`{}` is neither True nor False", names[i]);
