@@ -84,15 +84,9 @@ pub(crate) fn for_each_row(
     stop_at_quote: bool,
     each: impl FnMut(Row<'_>),
 ) -> usize {
-    let sep_byte = match sep {
-        Separator::Tab => b'\t',
-        Separator::Comma => b',',
-        Separator::Semicolon => b';',
-        Separator::Spaces => {
-            return each_row_by_line(bytes, from, first_no, sep, wanted, stop_at_quote, each)
-        }
+    let Some(plan) = Plan::new(sep, wanted, stop_at_quote) else {
+        return each_row_by_line(bytes, from, first_no, sep, wanted, stop_at_quote, each);
     };
-    let plan = Plan::new(sep, sep_byte, wanted, stop_at_quote);
     #[cfg(target_arch = "x86_64")]
     {
         use std::arch::is_x86_feature_detected as has;
@@ -121,19 +115,21 @@ struct Plan<'w> {
 }
 
 impl<'w> Plan<'w> {
-    fn new(sep: Separator, sep_byte: u8, wanted: &'w [bool], stop_at_quote: bool) -> Plan<'w> {
+    /// None for a separator that is not one byte (runs of spaces), which no mask finds.
+    fn new(sep: Separator, wanted: &'w [bool], stop_at_quote: bool) -> Option<Plan<'w>> {
+        let sep_byte = sep.byte()?;
         let mut next_wanted = vec![NONE; wanted.len() + 1];
         for k in (0..wanted.len()).rev() {
             next_wanted[k] = if wanted[k] { k } else { next_wanted[k + 1] };
         }
-        Plan {
+        Some(Plan {
             sep,
             sep_byte,
             wanted,
             next_wanted,
             wanted_columns: (0..wanted.len()).filter(|&k| wanted[k]).collect(),
             stop_at_quote,
-        }
+        })
     }
 }
 
@@ -203,12 +199,10 @@ fn scan<M: Masks, F: FnMut(Row<'_>)>(
     mut each: F,
 ) -> usize {
     let Plan {
-        sep,
         sep_byte,
         wanted,
         ref next_wanted,
-        ref wanted_columns,
-        stop_at_quote,
+        ..
     } = *plan;
     // Byte ranges of the wanted fields of the current line; turned into text only once the
     // line is known to be valid UTF-8.
@@ -273,18 +267,7 @@ fn scan<M: Masks, F: FnMut(Row<'_>)>(
                 break;
             }
             let end = base + nl as usize;
-            emit(
-                bytes,
-                &line,
-                end,
-                sep,
-                wanted,
-                wanted_columns,
-                &spans,
-                &mut fields,
-                stop_at_quote,
-                &mut each,
-            );
+            emit(plan, bytes, &line, end, &spans, &mut fields, &mut each);
             line = LineState {
                 no: line.no + 1,
                 start: end + 1,
@@ -304,15 +287,12 @@ fn scan<M: Masks, F: FnMut(Row<'_>)>(
     // Text after the last newline is a line unless nothing or only a `\r` is left.
     if !matches!(&bytes[line.start.min(bytes.len())..], b"" | b"\r") {
         emit(
+            plan,
             bytes,
             &line,
             bytes.len(),
-            sep,
-            wanted,
-            wanted_columns,
             &spans,
             &mut fields,
-            stop_at_quote,
             &mut each,
         );
         line.no += 1;
@@ -333,20 +313,24 @@ struct LineState {
 }
 
 /// Hands the line ending at byte `end` (its newline, or the end of the file) to `each`.
-#[allow(clippy::too_many_arguments)]
 #[inline]
 fn emit<'b>(
+    plan: &Plan<'_>,
     bytes: &'b [u8],
     line: &LineState,
     end: usize,
-    sep: Separator,
-    wanted: &[bool],
-    wanted_columns: &[usize],
     spans: &[(usize, usize)],
     fields: &mut [(usize, &'b str)],
-    stop_at_quote: bool,
     each: &mut impl FnMut(Row<'_>),
 ) {
+    let Plan {
+        sep,
+        sep_byte,
+        wanted,
+        ref wanted_columns,
+        stop_at_quote,
+        ..
+    } = *plan;
     let line_end = if end > line.start && bytes[end - 1] == b'\r' {
         end - 1
     } else {
@@ -363,12 +347,7 @@ fn emit<'b>(
         } else {
             split_wanted(&text, sep, wanted, &mut local)
         };
-        let sep_char = char::from(match sep {
-            Separator::Tab => b'\t',
-            Separator::Comma => b',',
-            _ => b';',
-        });
-        let last = text.rsplit(sep_char).next().unwrap_or("");
+        let last = text.rsplit(char::from(sep_byte)).next().unwrap_or("");
         each(Row {
             no: line.no,
             line: &text,
@@ -644,15 +623,13 @@ mod tests {
             let count = if r.fields.is_none() { 0 } else { r.count };
             out.push((r.no, r.line.to_string(), fields, count, r.last.to_string()));
         };
-        let sep_byte = if sep == Separator::Tab { b'\t' } else { b',' };
-        let plan = Plan::new(sep, sep_byte, wanted, stop);
-        let last_no = match kernel {
-            1 => scan::<PortableMasks, _>(&plan, bytes, from, 2, each),
+        let last_no = match (kernel, Plan::new(sep, wanted, stop)) {
+            (1, Some(plan)) => scan::<PortableMasks, _>(&plan, bytes, from, 2, each),
             #[cfg(target_arch = "x86_64")]
             // SAFETY: called only where the CPU has these (see `kernels`).
-            2 => unsafe { scan_bit_counts(&plan, bytes, from, 2, each) },
+            (2, Some(plan)) => unsafe { scan_bit_counts(&plan, bytes, from, 2, each) },
             #[cfg(target_arch = "x86_64")]
-            3 => unsafe { scan_avx512(&plan, bytes, from, 2, each) },
+            (3, Some(plan)) => unsafe { scan_avx512(&plan, bytes, from, 2, each) },
             _ => for_each_row(bytes, from, 2, sep, wanted, stop, each),
         };
         (out, last_no)

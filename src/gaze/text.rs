@@ -62,6 +62,16 @@ pub enum Separator {
 }
 
 impl Separator {
+    /// The one byte between fields; None for runs of spaces.
+    pub(crate) fn byte(self) -> Option<u8> {
+        match self {
+            Separator::Tab => Some(b'\t'),
+            Separator::Comma => Some(b','),
+            Separator::Semicolon => Some(b';'),
+            Separator::Spaces => None,
+        }
+    }
+
     /// From a header line holding several column names.
     pub fn sniff(line: &str) -> Separator {
         if line.contains('\t') {
@@ -196,15 +206,11 @@ pub fn split_into<'a>(line: &'a str, sep: Separator, out: &mut Vec<(usize, &'a s
             }
             out.push((start + 1, &line[start..]));
         }
-        _ => {
-            let c = match sep {
-                Separator::Tab => '\t',
-                Separator::Comma => ',',
-                _ => ';',
-            };
+        Separator::Tab | Separator::Comma | Separator::Semicolon => {
+            let c = sep.byte().expect("a one-byte separator");
             // The separator is one ASCII byte, so every split point is a char boundary.
             let mut start = 0;
-            for_each_separator(line.as_bytes(), c as u8, |i| {
+            for_each_separator(line.as_bytes(), c, |i| {
                 out.push((start + 1, &line[start..i]));
                 start = i + 1;
             });
@@ -224,16 +230,11 @@ pub(crate) fn split_wanted<'a>(
     wanted: &[bool],
     out: &mut Vec<(usize, &'a str)>,
 ) -> usize {
-    let sep_byte = match sep {
-        Separator::Tab => b'\t',
-        Separator::Comma => b',',
-        Separator::Semicolon => b';',
-        Separator::Spaces => {
-            split_into(line, sep, out);
-            let count = out.len();
-            out.resize(wanted.len().max(count), (0, ""));
-            return count;
-        }
+    let Some(sep_byte) = sep.byte() else {
+        split_into(line, sep, out);
+        let count = out.len();
+        out.resize(wanted.len().max(count), (0, ""));
+        return count;
     };
     split_wanted_at(line, sep_byte, wanted, out)
 }
