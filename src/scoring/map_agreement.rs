@@ -117,11 +117,21 @@ pub fn kl_divergence(s: &[f64], h: &[f64], weights: Option<&[f64]>) -> f64 {
 pub(crate) fn kl_divergence_of(p: Option<&[f64]>, q: Option<&[f64]>) -> f64 {
     const EPS: f64 = 2.2204e-16;
     match (p, q) {
-        (Some(p), Some(q)) => q
-            .iter()
-            .zip(p)
-            .map(|(qi, pi)| qi * (EPS + qi / (pi + EPS)).ln())
-            .sum(),
+        (Some(p), Some(q)) => {
+            // Where the human map is zero (most vertices at small blur) the term is ±0 times
+            // ln ε: the logarithm once, not per vertex; the same bits as the formula.
+            let ln_eps = EPS.ln();
+            q.iter()
+                .zip(p)
+                .map(|(&qi, pi)| {
+                    if qi == 0.0 {
+                        qi * ln_eps
+                    } else {
+                        qi * (EPS + qi / (pi + EPS)).ln()
+                    }
+                })
+                .sum()
+        }
         _ => f64::NAN,
     }
 }
@@ -129,6 +139,34 @@ pub(crate) fn kl_divergence_of(p: Option<&[f64]>, q: Option<&[f64]>) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The zero terms skip the logarithm: the sum must be the formula's bits, zeros of
+    /// either sign included.
+    #[test]
+    fn kl_skips_no_bit_of_the_formula_where_the_human_map_is_zero() {
+        const EPS: f64 = 2.2204e-16;
+        let q = [0.0, 0.25, -0.0, 0.5, 0.0, 0.25];
+        for p in [
+            [0.1, 0.2, 0.3, 0.0, 0.15, 0.25],
+            [0.0, 0.0, 1.0, 0.0, 0.0, 0.0],
+            [1e-300, 0.5, 0.0, 0.25, 0.25, 0.0],
+        ] {
+            let formula: f64 = q
+                .iter()
+                .zip(&p)
+                .map(|(qi, pi)| qi * (EPS + qi / (pi + EPS)).ln())
+                .sum();
+            let got = kl_divergence_of(Some(&p), Some(&q));
+            assert_eq!(got.to_bits(), formula.to_bits(), "p {p:?}");
+        }
+        let zeros = [0.0, -0.0, 0.0];
+        let formula: f64 = zeros
+            .iter()
+            .map(|qi| qi * (EPS + qi / (0.5 + EPS)).ln())
+            .sum();
+        let got = kl_divergence_of(Some(&[0.5; 3]), Some(&zeros));
+        assert_eq!(got.to_bits(), formula.to_bits());
+    }
 
     #[test]
     fn hand_computed_values() {

@@ -17,7 +17,7 @@ use crate::scoring::map_agreement::{
     as_distribution, kl_divergence_of, lcc_of, nss_of, sim_of, MeanStd,
 };
 use crate::scoring::surface_blur::{BlurKernel, MeshBlur};
-use crate::scoring::{auc_borji, auc_judd, gini_index, lcc, nss};
+use crate::scoring::{auc_borji, auc_judd, gini_index};
 
 /// How vertices count in the metrics.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -372,6 +372,44 @@ pub fn auc_judd_seen(
     auc_judd(&m, &p, w.as_deref())
 }
 
+/// One side of a human split: its subjects' summed map and what the metrics read of it.
+struct SubjectSet {
+    map: Vec<f64>,
+    stats: MeanStd,
+    /// Its subjects' fixated vertices, in file order (a vertex fixated twice is listed twice).
+    fixated: Vec<usize>,
+    positive: Vec<bool>,
+}
+
+impl SubjectSet {
+    fn of(
+        set: &[usize],
+        fixations: &crate::scoring::ground_truth::FixationTruth,
+        subject_maps: &[Vec<f64>],
+        n: usize,
+        weights: Option<&[f64]>,
+    ) -> SubjectSet {
+        let map = sum_of_maps(set.iter().map(|&s| &subject_maps[s]), n);
+        let names: Vec<&String> = set.iter().map(|&s| &fixations.subjects[s]).collect();
+        let fixated: Vec<usize> = fixations
+            .fixations
+            .iter()
+            .filter(|x| names.contains(&&x.subject))
+            .map(|x| x.vertex)
+            .collect();
+        let mut positive = vec![false; n];
+        for &v in &fixated {
+            positive[v] = true;
+        }
+        SubjectSet {
+            stats: MeanStd::of(&map, weights),
+            map,
+            fixated,
+            positive,
+        }
+    }
+}
+
 /// The split-half human ceiling at one blur: (metric, mean over splits) for AUC-Judd, LCC, NSS.
 fn human_ceiling(
     fixations: &crate::scoring::ground_truth::FixationTruth,
@@ -380,28 +418,41 @@ fn human_ceiling(
     weights: Option<&[f64]>,
 ) -> [(&'static str, f64); 3] {
     let n = subject_maps.first().map_or(0, |m| m.len());
-    // Splits in parallel, summed in split order afterwards: the same bytes on any thread count.
-    let per_split: Vec<[f64; 3]> = splits
+    // Each subject set is a predictor in some splits and a target in others (every half of
+    // eight subjects is both): its summed map, statistics, fixations and positives are made
+    // once, by the same arithmetic the metrics would do alone (the same bits).
+    let mut set_index: std::collections::HashMap<&[usize], usize> = Default::default();
+    let mut sets: Vec<&[usize]> = Vec::new();
+    let mut split_sets = Vec::with_capacity(splits.len());
+    for (pred, target) in splits {
+        let mut pair = [0; 2];
+        for (slot, set) in pair.iter_mut().zip([pred, target]) {
+            *slot = *set_index.entry(set.as_slice()).or_insert_with(|| {
+                sets.push(set.as_slice());
+                sets.len() - 1
+            });
+        }
+        split_sets.push((pair[0], pair[1]));
+    }
+    let halves: Vec<SubjectSet> = sets
         .par_iter()
-        .map(|(pred, target)| {
-            let predictor = sum_of_maps(pred.iter().map(|&s| &subject_maps[s]), n);
-            let target_density = sum_of_maps(target.iter().map(|&s| &subject_maps[s]), n);
-            let target_names: Vec<&String> =
-                target.iter().map(|&s| &fixations.subjects[s]).collect();
-            let target_fix: Vec<usize> = fixations
-                .fixations
-                .iter()
-                .filter(|x| target_names.contains(&&x.subject))
-                .map(|x| x.vertex)
-                .collect();
-            let mut target_pos = vec![false; n];
-            for &v in &target_fix {
-                target_pos[v] = true;
-            }
+        .map(|set| SubjectSet::of(set, fixations, subject_maps, n, weights))
+        .collect();
+    // Splits in parallel, summed in split order afterwards: the same bytes on any thread count.
+    let per_split: Vec<[f64; 3]> = split_sets
+        .par_iter()
+        .map(|&(p, t)| {
+            let (predictor, target) = (&halves[p], &halves[t]);
             [
-                auc_judd(&predictor, &target_pos, weights),
-                lcc(&predictor, &target_density, weights),
-                nss(&predictor, &target_fix, weights),
+                auc_judd(&predictor.map, &target.positive, weights),
+                lcc_of(
+                    &predictor.map,
+                    predictor.stats,
+                    &target.map,
+                    target.stats,
+                    weights,
+                ),
+                nss_of(&predictor.map, predictor.stats, &target.fixated),
             ]
         })
         .collect();
