@@ -132,6 +132,92 @@ pub enum ViewpointGenerator {
     List,
 }
 
+/// The axis a mesh file holds as up, as its subjects saw it (Y in the Stanford and 3DVA meshes
+/// the built-in protocol and gaze model assume; Z in much CAD and Blender output).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+pub enum UpAxis {
+    /// +x.
+    X,
+    /// +y.
+    Y,
+    /// +z.
+    Z,
+    /// −x.
+    #[cfg_attr(feature = "cli", value(name = "neg-x"))]
+    NegX,
+    /// −y.
+    #[cfg_attr(feature = "cli", value(name = "neg-y"))]
+    NegY,
+    /// −z.
+    #[cfg_attr(feature = "cli", value(name = "neg-z"))]
+    NegZ,
+}
+
+impl UpAxis {
+    /// The axis as a unit vector.
+    pub fn direction(self) -> [f64; 3] {
+        match self {
+            UpAxis::X => [1.0, 0.0, 0.0],
+            UpAxis::Y => [0.0, 1.0, 0.0],
+            UpAxis::Z => [0.0, 0.0, 1.0],
+            UpAxis::NegX => [-1.0, 0.0, 0.0],
+            UpAxis::NegY => [0.0, -1.0, 0.0],
+            UpAxis::NegZ => [0.0, 0.0, -1.0],
+        }
+    }
+
+    /// How the axis is written (`+z`, `-y`).
+    pub fn label(self) -> &'static str {
+        match self {
+            UpAxis::X => "+x",
+            UpAxis::Y => "+y",
+            UpAxis::Z => "+z",
+            UpAxis::NegX => "-x",
+            UpAxis::NegY => "-y",
+            UpAxis::NegZ => "-z",
+        }
+    }
+}
+
+/// One protocol shown to several datasets whose meshes may store different up axes (a lab's
+/// +z-up meshes trained beside the +y-up VR ones): each dataset, by folder name, sees the
+/// protocol turned to its own up axis ([`Protocol::with_up_axis`]).
+#[derive(Debug, Clone)]
+pub struct ProtocolPerDataset {
+    /// The protocol as given.
+    pub base: Protocol,
+    /// Datasets (folder names) whose meshes hold another up axis.
+    pub up_axes: Vec<(String, UpAxis)>,
+}
+
+impl ProtocolPerDataset {
+    /// Every dataset sees `base` as it is.
+    pub fn same_for_all(base: Protocol) -> ProtocolPerDataset {
+        ProtocolPerDataset {
+            base,
+            up_axes: Vec::new(),
+        }
+    }
+
+    /// The protocol dataset `name` was shown.
+    pub fn for_dataset(&self, name: &str) -> Protocol {
+        match self.up_axes.iter().find(|(d, _)| d == name) {
+            Some((_, axis)) => self.base.clone().with_up_axis(*axis),
+            None => self.base.clone(),
+        }
+    }
+
+    /// The name a model records: the protocol's, with each dataset's own up axis.
+    pub fn name(&self) -> String {
+        let mut name = self.base.name.clone();
+        for (dataset, axis) in &self.up_axes {
+            name.push_str(&format!(" ({dataset}: up {})", axis.label()));
+        }
+        name
+    }
+}
+
 /// The directions the camera holds on, and the order of the tour.
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -342,6 +428,30 @@ impl Protocol {
         let p = Protocol::from_toml(BUILTIN_TOML, BUILTIN_NAME)
             .expect("the built-in protocol is checked by the test suite");
         (p, BUILTIN_TOML.to_string())
+    }
+
+    /// The same protocol for meshes whose up axis is `axis`: its viewpoint frame (up, the
+    /// first view and any listed directions) turned by the shortest rotation that takes its
+    /// up to `axis`, so a mesh stored with another up axis is seen as the protocol's meshes
+    /// are (the `up`, `centre` and `gaze` methods read up and the views from here). The
+    /// icosahedron generator's 12 directions stay where they are: they cover every direction
+    /// evenly whichever way is up, and the tour starts from the turned first view. The name
+    /// records the change. Unchanged when the protocol's up already is `axis`.
+    pub fn with_up_axis(mut self, axis: UpAxis) -> Protocol {
+        let from = glam::DVec3::from_array(self.viewpoints.up).normalize_or(glam::DVec3::Y);
+        let to = glam::DVec3::from_array(axis.direction());
+        if from.abs_diff_eq(to, 1e-12) {
+            return self;
+        }
+        let turn = glam::DQuat::from_rotation_arc(from, to);
+        let rotate = |v: [f64; 3]| (turn * glam::DVec3::from_array(v)).to_array();
+        self.viewpoints.up = axis.direction();
+        self.viewpoints.first = rotate(self.viewpoints.first);
+        for d in &mut self.viewpoints.directions {
+            *d = rotate(*d);
+        }
+        self.name = format!("{} (up {})", self.name, axis.label());
+        self
     }
 
     /// The protocol at `path`, or the built-in one; with its text and its name for provenance.

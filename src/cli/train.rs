@@ -11,7 +11,7 @@ use meshgaze::pipeline::training_data::{
     check_unique_names, dataset_names, evaluation_meshes, training_sources,
 };
 use meshgaze::progress::Progress;
-use meshgaze::protocol::Protocol;
+use meshgaze::protocol::{Protocol, ProtocolPerDataset, UpAxis};
 use meshgaze::report::cross_validation_report::{
     cv_markdown, held_out_markdown, write_cv_csv, write_cv_figures, write_held_out_csv,
 };
@@ -91,6 +91,12 @@ pub struct TrainArgs {
     /// built-in hu2020).
     #[arg(long)]
     pub protocol: Option<PathBuf>,
+    /// The axis a dataset's mesh files hold as up, as its subjects saw them: `--up z` for every
+    /// dataset, `--up my-lab=z` for one folder (repeatable; axes x, y, z, neg-x, neg-y,
+    /// neg-z). The features read height, front and facing from the protocol's up axis, so a
+    /// lab's +z-up meshes beside the +y-up VR ones need it (docs/gaze_model.md).
+    #[arg(long, value_name = "[NAME=]AXIS")]
+    pub up: Vec<String>,
     /// With --cv: write, per held-out mesh, DIR/NAME.png: the held-out model's map beside
     /// the human fixation time, from the protocol's first hold view (1st–99th percentile
     /// colour scale, blue to red).
@@ -116,7 +122,11 @@ pub struct TrainArgs {
 }
 
 pub fn run(args: TrainArgs) -> Result<()> {
-    let (protocol, _, _) = Protocol::load_or_builtin(args.protocol.as_deref())?;
+    let (base, _, _) = Protocol::load_or_builtin(args.protocol.as_deref())?;
+    let protocols = ProtocolPerDataset {
+        base,
+        up_axes: parse_up_axes(&args.up, &dataset_names(&args.dataset, &args.study)?)?,
+    };
     let options = TrainOptions {
         params: BoostParams {
             rounds: args.rounds,
@@ -135,6 +145,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let objects: Vec<TrainingObject> = sources
         .par_iter()
         .map(|s| {
+            let protocol = protocols.for_dataset(&s.dataset());
             let o = s.object(&protocol, args.top_fraction, args.truth_layout);
             bars.advance(1);
             o
@@ -145,7 +156,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
     let feature_s = t.elapsed().as_secs_f64();
     let t = std::time::Instant::now();
     let all: Vec<&TrainingObject> = objects.iter().collect();
-    let model = train_model(&all, &options, &protocol.name).map_err(anyhow::Error::msg)?;
+    let model = train_model(&all, &options, &protocols.name()).map_err(anyhow::Error::msg)?;
     let train_s = t.elapsed().as_secs_f64();
     std::fs::write(&args.output, model.to_json())
         .with_context(|| format!("cannot write {}", args.output.display()))?;
@@ -160,7 +171,7 @@ pub fn run(args: TrainArgs) -> Result<()> {
         eprintln!("  {name:<24} {share:.3}");
     }
     if args.cv {
-        run_cross_validation(&args, &objects, &options, &protocol, &bars)?;
+        run_cross_validation(&args, &objects, &options, &protocols, &bars)?;
     }
     Ok(())
 }
@@ -170,7 +181,7 @@ fn run_cross_validation(
     args: &TrainArgs,
     objects: &[TrainingObject],
     options: &TrainOptions,
-    protocol: &Protocol,
+    protocols: &ProtocolPerDataset,
     bars: &Bars,
 ) -> Result<()> {
     let meshes = evaluation_meshes(&args.dataset, args.truth_layout)?;
@@ -181,7 +192,7 @@ fn run_cross_validation(
         },
         ablations: args.ablations,
     };
-    let cv = cross_validate(objects, &meshes, options, protocol, &plan, bars)
+    let cv = cross_validate(objects, &meshes, options, protocols, &plan, bars)
         .map_err(anyhow::Error::msg)?;
     let path = args.output.with_extension("cv.csv");
     write_cv_csv(&path, &cv.rows).with_context(|| format!("cannot write {}", path.display()))?;
@@ -191,7 +202,7 @@ fn run_cross_validation(
     print!("{}", cv_markdown(&cv.rows));
     print!("{}", held_out_markdown(&cv.held_out, &cv.rows));
     if let Some(dir) = &args.figures {
-        write_cv_figures(dir, &meshes, &cv.held_out_maps, protocol).map_err(anyhow::Error::msg)?;
+        write_cv_figures(dir, &meshes, &cv.held_out_maps, protocols).map_err(anyhow::Error::msg)?;
         eprintln!("figures: {}", dir.display());
     }
     eprintln!(
@@ -200,6 +211,41 @@ fn run_cross_validation(
         held_path.display()
     );
     Ok(())
+}
+
+/// `--up [NAME=]AXIS` entries: an axis alone is every dataset's; NAME names one folder.
+fn parse_up_axes(specs: &[String], names: &[String]) -> Result<Vec<(String, UpAxis)>> {
+    use clap::ValueEnum;
+    let axis_of = |spec: &str, text: &str| {
+        UpAxis::from_str(text, true).map_err(|_| {
+            anyhow::anyhow!("--up {spec}: `{text}` is not an axis (x, y, z, neg-x, neg-y, neg-z)")
+        })
+    };
+    let mut out: Vec<(String, UpAxis)> = Vec::new();
+    for spec in specs {
+        let chosen: Vec<(String, UpAxis)> = match spec.split_once('=') {
+            Some((name, text)) => {
+                if !names.iter().any(|n| n == name) {
+                    anyhow::bail!(
+                        "--up {spec}: no --dataset or --study folder named `{name}` (the folders are named {})",
+                        names.join(", ")
+                    );
+                }
+                vec![(name.to_string(), axis_of(spec, text)?)]
+            }
+            None => {
+                let axis = axis_of(spec, spec)?;
+                names.iter().map(|n| (n.clone(), axis)).collect()
+            }
+        };
+        for (name, axis) in chosen {
+            if out.iter().any(|(n, _)| *n == name) {
+                anyhow::bail!("--up gives the folder `{name}` an up axis twice");
+            }
+            out.push((name, axis));
+        }
+    }
+    Ok(out)
 }
 
 /// `--weight NAME=W` entries, each naming one of the given folders.

@@ -21,7 +21,7 @@ use crate::gaze_model::surface_points::SurfacePoints;
 use crate::gaze_model::{train_model_without, TrainOptions, TrainingObject};
 use crate::mesh::Mesh;
 use crate::progress::Progress;
-use crate::protocol::Protocol;
+use crate::protocol::ProtocolPerDataset;
 use crate::saliency::{compute_saliency_viewed, Method, SmsParams, Viewing};
 use crate::scoring::auc::auc_judd;
 use crate::scoring::map_agreement::lcc;
@@ -335,20 +335,28 @@ pub fn cross_validate(
     objects: &[TrainingObject],
     meshes: &[EvaluationMesh],
     options: &TrainOptions,
-    protocol: &Protocol,
+    protocols: &ProtocolPerDataset,
     plan: &CvPlan,
     progress: &dyn Progress,
 ) -> Result<CvResult, ExperimentError> {
+    // Each held-out mesh is seen as its own dataset's subjects saw it (its up axis).
+    let protocol_of: Vec<_> = meshes
+        .iter()
+        .map(|m| protocols.for_dataset(&m.dataset))
+        .collect();
+    let protocol_name = protocols.name();
     check_categories(objects, meshes, plan)?;
     let folds = folds_of(&schemes(objects, plan), meshes, plan);
     progress.start("held-out folds", (folds.len() + meshes.len()) as u64);
     let features: Vec<FeatureMatrix> = meshes
         .par_iter()
-        .map(|m| point_features(&SurfacePoints::of_mesh(&m.mesh), protocol))
+        .zip(&protocol_of)
+        .map(|(m, protocol)| point_features(&SurfacePoints::of_mesh(&m.mesh), protocol))
         .collect::<Result<_, _>>()?;
     let seen: Vec<Vec<bool>> = meshes
         .iter()
-        .map(|m| hold_view_exposure(&m.mesh, protocol).map(|e| e.seen()))
+        .zip(&protocol_of)
+        .map(|(m, protocol)| hold_view_exposure(&m.mesh, protocol).map(|e| e.seen()))
         .collect::<Result<_, _>>()?;
     let predictions: Vec<Vec<(usize, Vec<f64>)>> = folds
         .par_iter()
@@ -365,7 +373,7 @@ pub fn cross_validate(
                     .filter(|n| feature_group(n) == *without)
                     .collect()
             };
-            let model = train_model_without(&training, options, &protocol.name, &dropped)?;
+            let model = train_model_without(&training, options, &protocol_name, &dropped)?;
             let out = meshes
                 .iter()
                 .enumerate()
@@ -395,13 +403,13 @@ pub fn cross_validate(
             }
         }
     }
-    let viewing = Viewing {
-        protocol: protocol.clone(),
-        model: None,
-        rarity: Default::default(),
-    };
     let mut rows = Vec::new();
     for (i, held) in meshes.iter().enumerate() {
+        let viewing = Viewing {
+            protocol: protocol_of[i].clone(),
+            model: None,
+            rarity: Default::default(),
+        };
         rows.extend(baseline_rows(
             held,
             &seen[i],

@@ -5,7 +5,7 @@ use std::path::Path;
 use crate::experiments::gaze_model_cross_validation::{
     held_out_means, mean_rows, CvRow, EvaluationMesh, HeldOutRow,
 };
-use crate::protocol::Protocol;
+use crate::protocol::ProtocolPerDataset;
 use crate::report::html::thumbnail;
 use crate::report::map_render::render_map;
 use crate::stimulus::camera::CameraPlan;
@@ -143,11 +143,12 @@ pub fn write_cv_figures(
     dir: &Path,
     meshes: &[EvaluationMesh],
     maps: &[(String, Vec<f64>)],
-    protocol: &Protocol,
+    protocols: &ProtocolPerDataset,
 ) -> Result<(), super::ReportError> {
     use super::ReportError;
     crate::file_bytes::create_output_dir(dir).map_err(ReportError::stage)?;
     for (m, (name, map)) in meshes.iter().zip(maps) {
+        let protocol = &protocols.for_dataset(&m.dataset);
         let plan = CameraPlan::new(&m.mesh, protocol)?;
         let left = thumbnail(&render_map(&m.mesh, &plan, protocol, map, 0), 480);
         let right = thumbnail(&render_map(&m.mesh, &plan, protocol, &m.values, 0), 480);
