@@ -136,6 +136,7 @@ pub enum ViewpointGenerator {
 /// the built-in protocol and gaze model assume; Z in much CAD and Blender output).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[cfg_attr(feature = "cli", derive(clap::ValueEnum))]
+#[serde(rename_all = "kebab-case")]
 pub enum UpAxis {
     /// +x.
     X,

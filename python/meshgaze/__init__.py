@@ -86,7 +86,7 @@ def _as_mesh(mesh: MeshLike) -> Mesh:
 
 def saliency(mesh: MeshLike, method: str = "sms", seed: int = 1, *,
              settings: Sequence[str] = (), protocol: PathLike | None = None,
-             model: PathLike | None = None, progress: bool = False,
+             up: str | None = None, model: PathLike | None = None, progress: bool = False,
              **params: Any) -> np.ndarray:
     """Per-vertex saliency in [0, 1], the values `meshgaze saliency --method METHOD --seed
     SEED` writes (equal as float64, not merely close).
@@ -96,12 +96,16 @@ def saliency(mesh: MeshLike, method: str = "sms", seed: int = 1, *,
     quadrature_rings, grid, gedt_sigma_voxels, max_iterations, tolerance.
     settings: parameters of sri, gr and mr as `--set` takes them, e.g. ["sri.most_similar=32"].
     protocol: the protocol file for up, centre and gaze (default: the built-in hu2020).
+    up: the axis the mesh stores as up, as the subjects saw it ("x", "y", "z", "neg-x",
+    "neg-y", "neg-z"; default: the protocol's, +y): `meshgaze saliency --up`. The gaze model
+    reads height and facing along it, and is below curvature on meshes turned from +y up.
     model: a model file from `meshgaze train`, for method="gaze" (default: the built-in one,
     learned from one VR experiment; check it on your own data with `meshgaze train --cv`).
     progress: print the steps on stderr.
     """
     return _meshgaze.saliency(_as_mesh(mesh), method, seed, settings=list(settings),
-                              protocol=_path_or_none(protocol), model=_path_or_none(model),
+                              protocol=_path_or_none(protocol), up=up,
+                              model=_path_or_none(model),
                               progress=progress, **params)
 
 

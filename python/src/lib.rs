@@ -16,6 +16,7 @@ use meshgaze::gaze::ingest::{ingest_files, ingest_tables, write_samples_csv, Ing
 use meshgaze::gaze::recording::GazeFormat;
 use meshgaze::gaze_model::GazeModel;
 use meshgaze::progress::Progress;
+use meshgaze::protocol::UpAxis;
 use meshgaze::saliency::{compute_saliency_viewed, Method, RarityParams, SmsParams, Viewing};
 use meshgaze::scoring::surface_blur::BlurKernel;
 use meshgaze::scoring::{score_mesh, ScoreParams, Weighting};
@@ -181,10 +182,15 @@ pub(crate) fn progress_of(show: bool) -> &'static dyn Progress {
 /// The viewing (protocol, model, method settings) `meshgaze saliency` builds from its flags.
 fn viewing(
     protocol: Option<&Path>,
+    up: Option<UpAxis>,
     model: Option<&Path>,
     settings: &[String],
 ) -> Result<Viewing, String> {
     let (protocol, _, _) = Protocol::load_or_builtin(protocol).map_err(|e| e.to_string())?;
+    let protocol = match up {
+        Some(axis) => protocol.with_up_axis(axis),
+        None => protocol,
+    };
     let model = model
         .map(GazeModel::load)
         .transpose()
@@ -233,9 +239,9 @@ fn sms_params(seed: u64, params: Option<&Bound<'_, PyDict>>) -> PyResult<SmsPara
     Ok(p)
 }
 
-/// saliency(mesh, method, seed, settings, protocol, model, progress, **params) -> (n,) array.
+/// saliency(mesh, method, seed, settings, protocol, up, model, progress, **params) -> (n,) array.
 #[pyfunction]
-#[pyo3(signature = (mesh, method="sms", seed=1, settings=Vec::new(), protocol=None, model=None, progress=false, **params))]
+#[pyo3(signature = (mesh, method="sms", seed=1, settings=Vec::new(), protocol=None, up=None, model=None, progress=false, **params))]
 #[allow(clippy::too_many_arguments)]
 fn saliency<'py>(
     py: Python<'py>,
@@ -244,11 +250,15 @@ fn saliency<'py>(
     seed: u64,
     settings: Vec<String>,
     protocol: Option<PathBuf>,
+    up: Option<String>,
     model: Option<PathBuf>,
     progress: bool,
     params: Option<&Bound<'py, PyDict>>,
 ) -> PyResult<Bound<'py, PyArray1<f64>>> {
     let method = Method::from_name(method).map_err(|e| PyValueError::new_err(e.to_string()))?;
+    let up: Option<UpAxis> = up
+        .map(|u| parse_name("up (x, y, z, neg-x, neg-y, neg-z)", &u))
+        .transpose()?;
     if model.is_some() && method != Method::Gaze {
         return Err(PyValueError::new_err("model= is for method=\"gaze\""));
     }
@@ -264,7 +274,7 @@ fn saliency<'py>(
     let mesh = &mesh.inner;
     let values = py
         .detach(|| {
-            let viewing = viewing(protocol.as_deref(), model.as_deref(), &settings)?;
+            let viewing = viewing(protocol.as_deref(), up, model.as_deref(), &settings)?;
             compute_saliency_viewed(method, mesh, &sms, &viewing, progress_of(progress))
                 .map_err(|e| e.to_string())
         })

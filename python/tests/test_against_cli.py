@@ -246,3 +246,15 @@ def test_score_reads_a_per_face_truth_as_the_cli_does(cli, repo, tmp_path):
     assert np.array_equal(merged["value"].to_numpy(), merged["value_cli"].to_numpy())
     with pytest.raises(meshgaze.MeshgazeError, match="faces.csv"):
         meshgaze.score(mesh, {"mc": mc}, faces, truth_layout="vertex")
+
+
+def test_saliency_up_axis_equals_the_cli_and_moves_the_gaze_map(cli, repo, tmp_path):
+    mesh_path = repo / "stimuli" / "meshes" / "bun_zipper_res3.ply"
+    mesh = meshgaze.read_mesh(mesh_path)
+    ours = meshgaze.saliency(mesh, "gaze", up="z")
+    cli("saliency", mesh_path, "--method", "gaze", "--up", "z", "-o", tmp_path / "gaze_z",
+        "--quiet")
+    assert np.array_equal(ours, read_map(tmp_path / "gaze_z.csv"))
+    assert not np.array_equal(ours, meshgaze.saliency(mesh, "gaze"))
+    with pytest.raises(ValueError, match="up"):
+        meshgaze.saliency(mesh, "gaze", up="w")
