@@ -13,7 +13,9 @@ mod table3;
 pub use gaze_features_cell::{gaze_features_cell, GazeFeaturesCell};
 pub use memory::peak_rss_mb;
 pub use scoring_cell::{scoring_cell, ScoringCell};
-pub use smi_parse::{eyelink_parse_speed, smi_parse_speed, table_parse_speeds, ParseSpeed};
+pub use smi_parse::{
+    eyelink_parse_speed, smi_parse_speed, table_parse_speeds, ParseSpeed, PARSE_RUNS,
+};
 pub use stimulus_cell::{stimulus_cell, StimulusCell};
 pub use table3::{
     load_case, paper_case, run_case, run_cell_in_child, CaseResult, PaperCase, COMPETITORS,
