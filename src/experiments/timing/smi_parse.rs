@@ -21,8 +21,8 @@ pub struct ParseSpeed {
 /// Each reader parses its bytes this many times; the fastest counts.
 pub const PARSE_RUNS: usize = 3;
 
-/// Parses `bytes` [`PARSE_RUNS`] times: (samples counted by `count` from the last parse, the
-/// fastest run's seconds, the first run's seconds). The recording is dropped outside the timing.
+/// Parses `bytes` [`PARSE_RUNS`] times; the samples are counted by `count`. Each recording is
+/// dropped after its run's clock stops.
 fn timed_parses(
     bytes: &[u8],
     what: &str,
