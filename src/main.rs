@@ -35,6 +35,7 @@ enum Command {
 }
 
 fn main() -> std::process::ExitCode {
+    keep_freed_memory();
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Saliency(args) => cli::saliency::run(args),
@@ -61,3 +62,22 @@ fn main() -> std::process::ExitCode {
         }
     }
 }
+
+/// glibc gives every freed block above its mmap threshold (128 KB, rising to at most 32 MB)
+/// back to the system and trims the free top of its heaps, so the next block of that size
+/// comes as fresh zeroed pages, one page fault per 4 KB. meshgaze allocates and frees blocks of
+/// megabytes over and over (every blur level of `score` builds maps, merged sums and SI's dense
+/// matrices), so the binary keeps freed memory for reuse instead: large blocks come from the
+/// heap like small ones, and the heap is never trimmed. The library leaves the allocator alone
+/// (the Python module runs inside another program's process).
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+fn keep_freed_memory() {
+    // SAFETY: mallopt only sets allocator parameters, and runs before any other thread exists.
+    unsafe {
+        libc::mallopt(libc::M_MMAP_MAX, 0);
+        libc::mallopt(libc::M_TRIM_THRESHOLD, libc::c_int::MAX);
+    }
+}
+
+#[cfg(not(all(target_os = "linux", target_env = "gnu")))]
+fn keep_freed_memory() {}
