@@ -97,8 +97,9 @@ pub struct ScoreArgs {
     #[arg(long, value_enum)]
     pub up: Option<UpAxis>,
     /// A gaze model from `meshgaze train` for `--method gaze` (default: the built-in one).
-    /// A mesh named like one of the model's training objects is refused: that score would
-    /// be a training-set figure (use `meshgaze train --cv` for held-out figures).
+    /// A mesh named like one of the model's training objects, or whose surface passes
+    /// through the points the model file keeps of one (a renamed copy), is refused: that
+    /// score would be a training-set figure (use `meshgaze train --cv` for held-out figures).
     #[arg(long)]
     pub model: Option<PathBuf>,
     /// Set a parameter of sri, gr or mr as METHOD.NAME=VALUE (repeatable), e.g.

@@ -10,6 +10,7 @@ mod error;
 
 pub mod features;
 pub(crate) mod local_shape;
+pub mod object_fingerprint;
 pub(crate) mod shape_contrast;
 pub mod surface_points;
 pub(crate) mod view_visibility;
@@ -48,6 +49,8 @@ pub struct TrainingObject {
     pub features: FeatureMatrix,
     /// Whether each point is among the most looked-at (the file's flag column).
     pub labels: Vec<bool>,
+    /// A few of its points, by which `score` recognises a copy of it under another name.
+    pub fingerprint: Vec<[f64; 3]>,
 }
 
 /// What a model was trained on and how (all of it fixes the bytes of the model).
@@ -81,6 +84,10 @@ pub struct ObjectRecord {
     pub positives: usize,
     /// Points drawn for training.
     pub rows_used: usize,
+    /// A few of its points ([`object_fingerprint`]): `score` refuses a mesh that holds them
+    /// whatever its name. Empty in model files written before it was kept.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub fingerprint: Vec<[f64; 3]>,
 }
 
 /// One dataset of a model's training data and the weight it carried.
@@ -182,6 +189,7 @@ pub fn training_object(
         sha256: sha256_hex(&bytes),
         features,
         labels,
+        fingerprint: object_fingerprint::fingerprint_of(&points.points.positions),
     })
 }
 
@@ -226,6 +234,7 @@ pub fn training_object_from_map(
         sha256,
         features,
         labels,
+        fingerprint: object_fingerprint::fingerprint_of(&mesh.positions),
     })
 }
 
@@ -290,6 +299,7 @@ pub fn train_model_without(
             points: object.labels.len(),
             positives: object.labels.iter().filter(|&&b| b).count(),
             rows_used: rows.len(),
+            fingerprint: object.fingerprint.clone(),
         });
     }
     let datasets = balance_datasets(&records, options)?;
@@ -467,6 +477,7 @@ mod tests {
             points: rows,
             positives: 1,
             rows_used: rows,
+            fingerprint: Vec::new(),
         }
     }
 

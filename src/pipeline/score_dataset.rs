@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::PipelineError;
+use crate::gaze_model::object_fingerprint::SurfaceLookup;
 use crate::mesh::load_mesh;
 use crate::progress::Progress;
 use crate::provenance::{InputFile, Provenance};
@@ -73,12 +74,33 @@ struct Summary<'a> {
     mean: Vec<MethodSummary>,
 }
 
-/// Refuses to score the gaze model on an object it was trained on.
-fn refuse_training_object(viewing: &Viewing, mesh_name: &str) -> Result<(), PipelineError> {
+/// Refuses to score the gaze model on an object it was trained on: named like one, or holding
+/// one's points under another name (a renamed or re-saved copy of a training mesh).
+fn refuse_training_object(
+    viewing: &Viewing,
+    mesh_name: &str,
+    mesh: &crate::mesh::Mesh,
+) -> Result<(), PipelineError> {
     let model = viewing.gaze_model();
+    let advice = "`meshgaze train --cv` gives leave-one-object-out figures, or pass --model trained without it (`meshgaze train --exclude NAME`)";
     if model.training.objects.iter().any(|o| o.name == mesh_name) {
         return Err(PipelineError::Invalid(format!(
-            "{mesh_name}: the gaze model was trained on an object named `{mesh_name}`, so its score here would be a training-set figure; `meshgaze train --cv` gives leave-one-object-out figures, or pass --model trained without it"
+            "{mesh_name}: the gaze model was trained on an object named `{mesh_name}`, so its score here would be a training-set figure; {advice}"
+        )));
+    }
+    let surface = SurfaceLookup::new(mesh);
+    if let Some(object) = model
+        .training
+        .objects
+        .iter()
+        .find(|o| surface.holds(&o.fingerprint))
+    {
+        return Err(PipelineError::Invalid(format!(
+            "{mesh_name}: this mesh's surface passes through {} of the {} points the gaze model keeps of its training object `{}` (dataset `{}`): it is that object under another name, so its score here would be a training-set figure; {advice}",
+            surface.matches(&object.fingerprint),
+            object.fingerprint.len(),
+            object.name,
+            object.dataset
         )));
     }
     Ok(())
@@ -113,7 +135,7 @@ fn maps_of(
         ));
     }
     if req.methods.contains(&Method::Gaze) {
-        refuse_training_object(req.viewing, name)?;
+        refuse_training_object(req.viewing, name, mesh)?;
     }
     // The methods run side by side (GR and MR sharing their descriptors): each map is the same
     // on any thread count, kept in the order asked for; a method's seconds are its wall time
