@@ -144,11 +144,11 @@ fn scoring_the_model_on_its_own_training_object_is_refused() {
     assert!(err.contains("training-set figure"), "{err}");
 }
 
-/// A renamed copy of a training mesh is refused too: the model recognises the object by the
-/// points it keeps of it, not by the file's name.
+/// A renamed copy of a training mesh is refused by score and flagged by saliency: the model
+/// recognises the object by the points it keeps of it, not by the file's name.
 #[test]
 #[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
-fn scoring_the_model_on_a_renamed_training_mesh_is_refused() {
+fn a_renamed_training_mesh_is_refused_by_score_and_flagged_by_saliency() {
     let data = common::shared_data();
     let vr = data.join("fixations-vr");
     let dir = std::env::temp_dir().join(format!("meshgaze-renamed-{}", std::process::id()));
@@ -172,6 +172,26 @@ fn scoring_the_model_on_a_renamed_training_mesh_is_refused() {
             err.contains(&format!("training object `{object}`"))
                 && err.contains("training-set figure"),
             "{err}"
+        );
+        // Its map is written, with a warning and the object named in the sidecar.
+        let prefix = dir.join(format!("map-{object}"));
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+            .args(["saliency", "--quiet", "--method", "gaze"])
+            .arg(&copy)
+            .arg("-o")
+            .arg(&prefix)
+            .output()
+            .unwrap();
+        assert!(o.status.success());
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(
+            err.contains(&format!("training object `{object}`")),
+            "{err}"
+        );
+        let sidecar = std::fs::read_to_string(prefix.with_extension("json")).unwrap();
+        assert!(
+            sidecar.contains(&format!("\"mesh_is_training_object\": \"{object}\"")),
+            "{sidecar}"
         );
     }
     let _ = std::fs::remove_dir_all(&dir);

@@ -121,6 +121,22 @@ impl<'a> SurfaceLookup<'a> {
     }
 }
 
+/// The first of `model`'s training objects whose fingerprint `mesh`'s surface holds, with how
+/// many of its points the surface passes through: a map or score of the model on it is a
+/// training-set figure, whatever the file is called.
+pub fn training_object_in<'m>(
+    model: &'m super::GazeModel,
+    mesh: &Mesh,
+) -> Option<(&'m super::ObjectRecord, usize)> {
+    let surface = SurfaceLookup::new(mesh);
+    model
+        .training
+        .objects
+        .iter()
+        .find(|o| surface.holds(&o.fingerprint))
+        .map(|o| (o, surface.matches(&o.fingerprint)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

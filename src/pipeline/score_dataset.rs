@@ -8,7 +8,7 @@ use std::path::{Path, PathBuf};
 use serde::Serialize;
 
 use super::PipelineError;
-use crate::gaze_model::object_fingerprint::SurfaceLookup;
+use crate::gaze_model::object_fingerprint::training_object_in;
 use crate::mesh::load_mesh;
 use crate::progress::Progress;
 use crate::provenance::{InputFile, Provenance};
@@ -88,16 +88,10 @@ fn refuse_training_object(
             "{mesh_name}: the gaze model was trained on an object named `{mesh_name}`, so its score here would be a training-set figure; {advice}"
         )));
     }
-    let surface = SurfaceLookup::new(mesh);
-    if let Some(object) = model
-        .training
-        .objects
-        .iter()
-        .find(|o| surface.holds(&o.fingerprint))
-    {
+    if let Some((object, matched)) = training_object_in(&model, mesh) {
         return Err(PipelineError::Invalid(format!(
             "{mesh_name}: this mesh's surface passes through {} of the {} points the gaze model keeps of its training object `{}` (dataset `{}`): it is that object under another name, so its score here would be a training-set figure; {advice}",
-            surface.matches(&object.fingerprint),
+            matched,
             object.fingerprint.len(),
             object.name,
             object.dataset

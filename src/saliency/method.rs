@@ -420,11 +420,17 @@ fn compute_nonempty(
             let m = viewing.gaze_model();
             let mut v = m.predict(&SurfacePoints::of_mesh(mesh), &viewing.protocol)?;
             super::sms::gaussian_interpolation::min_max_normalize(&mut v);
+            // A map of one of the model's own training objects is a training-set prediction;
+            // the sidecar says so, whatever the file is called.
+            let training_object =
+                crate::gaze_model::object_fingerprint::training_object_in(&m, mesh)
+                    .map(|(o, _)| o.name.clone());
             progress.finish();
             (
                 v,
                 Ok(serde_json::json!({
                     "protocol": viewing.protocol.name,
+                    "mesh_is_training_object": training_object,
                     "model_trained_on": m.training.objects.iter().map(|o| &o.name).collect::<Vec<_>>(),
                     "model_sha256": crate::provenance::sha256_hex(m.to_json().as_bytes()),
                     "trees": m.trees.trees.len(),
