@@ -3,7 +3,6 @@ use std::path::{Path, PathBuf};
 use anyhow::{bail, Context, Result};
 use clap::Args;
 
-use meshgaze::gaze_model::object_fingerprint::training_object_in;
 use meshgaze::gaze_model::surface_points::read_gaze_points;
 use meshgaze::gaze_model::GazeModel;
 use meshgaze::mesh::geometry::BoundingBox;
@@ -250,15 +249,11 @@ fn compute_and_report(
         &output_prefix(&args.output),
         &bars,
     )?;
-    if args.method == Method::Gaze {
-        let viewing = args.viewing()?;
-        if let Some((object, _)) = training_object_in(&viewing.gaze_model(), mesh) {
-            eprintln!(
-                "warning: {}: this mesh is the gaze model's training object `{}` (its surface holds the points the model keeps of it): the map is a training-set prediction, not evidence of how the model does on new meshes",
-                mesh_path.display(),
-                object.name
-            );
-        }
+    if let Some(object) = &r.training_object {
+        eprintln!(
+            "warning: {}: this mesh is the gaze model's training object `{object}` (its surface holds the points the model keeps of it): the map is a training-set prediction, not evidence of how the model does on new meshes",
+            mesh_path.display()
+        );
     }
     if args.quiet {
         return Ok(());

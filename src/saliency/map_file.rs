@@ -103,6 +103,9 @@ pub struct SaliencyRun {
     pub outputs: Vec<String>,
     /// The SMS result (steps, convergence), for --method sms.
     pub sms: Option<SmsResult>,
+    /// For --method gaze: the model's training object this mesh is (by its surface), whose
+    /// map is then a training-set prediction.
+    pub training_object: Option<String>,
 }
 
 /// Computes `method`'s map of `mesh` and writes PREFIX.csv, .ply, .json (and the SMS extras
@@ -147,6 +150,10 @@ pub fn compute_and_write_map(
         (out.values, out.report, out.seconds, None)
     };
     let gini = gini_index(&values);
+    let training_object = report
+        .get("mesh_is_training_object")
+        .and_then(|v| v.as_str())
+        .map(str::to_string);
     if let Some(dir) = prefix.parent().filter(|d| !d.as_os_str().is_empty()) {
         crate::file_bytes::create_output_dir(dir).map_err(SaliencyError::io("create", dir))?;
     }
@@ -207,6 +214,7 @@ pub fn compute_and_write_map(
         values,
         outputs,
         sms: sms_result,
+        training_object,
     })
 }
 
