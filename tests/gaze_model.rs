@@ -123,6 +123,19 @@ fn the_builtin_model_is_what_the_documented_command_trains() {
     );
 }
 
+/// `meshgaze score --quiet --method gaze` of `mesh` against `truth`, written to `out`.
+fn score_gaze(mesh: &Path, truth: &Path, out: &Path) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
+        .args(["score", "--quiet", "--method", "gaze", "--mesh"])
+        .arg(mesh)
+        .arg("--truth")
+        .arg(truth)
+        .arg("-o")
+        .arg(out)
+        .output()
+        .unwrap()
+}
+
 /// `score --method gaze` on an object the model was trained on is refused, naming why.
 #[test]
 #[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
@@ -130,15 +143,11 @@ fn scoring_the_model_on_its_own_training_object_is_refused() {
     let data = common::shared_data();
     let vr = data.join("fixations-vr");
     let out = std::env::temp_dir().join(format!("meshgaze-refuse-{}", std::process::id()));
-    let o = std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
-        .args(["score", "--quiet", "--method", "gaze", "--mesh"])
-        .arg(vr.join("meshes/bunny.obj.gz"))
-        .arg("--truth")
-        .arg(vr.join("truth/bunny_objorder_time_bin.txt.gz"))
-        .arg("-o")
-        .arg(&out)
-        .output()
-        .unwrap();
+    let o = score_gaze(
+        &vr.join("meshes/bunny.obj.gz"),
+        &vr.join("truth/bunny_objorder_time_bin.txt.gz"),
+        &out,
+    );
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("training-set figure"), "{err}");
@@ -157,15 +166,11 @@ fn a_renamed_training_mesh_is_refused_by_score_and_flagged_by_saliency() {
     for object in ["bunny", "sofa"] {
         let copy = dir.join(format!("my-{object}-scan.obj.gz"));
         std::fs::copy(vr.join(format!("meshes/{object}.obj.gz")), &copy).unwrap();
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"))
-            .args(["score", "--quiet", "--method", "gaze", "--mesh"])
-            .arg(&copy)
-            .arg("--truth")
-            .arg(vr.join(format!("truth/{object}_objorder_time_bin.txt.gz")))
-            .arg("-o")
-            .arg(dir.join(format!("out-{object}")))
-            .output()
-            .unwrap();
+        let o = score_gaze(
+            &copy,
+            &vr.join(format!("truth/{object}_objorder_time_bin.txt.gz")),
+            &dir.join(format!("out-{object}")),
+        );
         assert!(!o.status.success(), "{object}: a renamed copy was scored");
         let err = String::from_utf8_lossy(&o.stderr);
         assert!(
