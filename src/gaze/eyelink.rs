@@ -21,7 +21,7 @@ use super::recording::{
     Event, EventKind, Eye, EyeSample, GazeError, GazeFormat, Header, Message, Recording,
     RowAccount, Sample,
 };
-use super::text::{decode, lines};
+use super::text::{decode, lines, plain_decimal};
 
 /// Whether `bytes` (the file's start) is an EyeLink EDF binary rather than its ASC text.
 pub(crate) fn looks_like_edf(bytes: &[u8]) -> bool {
@@ -179,6 +179,10 @@ fn duration_us(field: &str) -> Option<i64> {
 
 /// A value that may be `.` (lost); Err when it is neither a number nor `.`.
 fn value(field: &str) -> Result<Option<f64>, ()> {
+    // Nearly every value is a bare decimal (the same f64 as the full parser gives it).
+    if let Some(v) = plain_decimal(field) {
+        return Ok(Some(v));
+    }
     let f = field.trim();
     if f == "." || f.is_empty() {
         return Ok(None);
@@ -192,22 +196,29 @@ fn value(field: &str) -> Result<Option<f64>, ()> {
 
 /// Whitespace-separated fields with their 1-based columns.
 fn fields_of(line: &str) -> Vec<(usize, &str)> {
-    let mut out = Vec::new();
-    let mut start = None;
-    for (i, ch) in line.char_indices() {
-        if ch == '\t' || ch == ' ' {
-            if let Some(s) = start.take() {
-                out.push((s + 1, &line[s..i]));
-            }
-        } else if start.is_none() {
-            start = Some(i);
-        }
-    }
-    if let Some(s) = start {
-        out.push((s + 1, &line[s..]));
-    }
-    out
+    whitespace_fields(line).collect()
 }
+
+/// The fields of [`fields_of`], one by one. Bytes, not chars, are walked: a space or TAB byte
+/// is never part of a multi-byte character, so every cut is on a char boundary.
+fn whitespace_fields(line: &str) -> impl Iterator<Item = (usize, &str)> {
+    let bytes = line.as_bytes();
+    let mut at = 0;
+    std::iter::from_fn(move || {
+        let gap = |b: &u8| *b == b' ' || *b == b'\t';
+        let start = at + bytes[at..].iter().position(|b| !gap(b))?;
+        let end = bytes[start..]
+            .iter()
+            .position(gap)
+            .map_or(bytes.len(), |k| start + k);
+        at = end;
+        Some((start + 1, &line[start..end]))
+    })
+}
+
+/// A sample line has at most this many value fields (time, 3 per eye, 2 velocities per eye,
+/// resolution, input, 3 target values: 17); more are counted but not kept.
+const MAX_SAMPLE_VALUES: usize = 24;
 
 /// The screen's size along one axis from a `*_COORDS` pair. SR Research writes the last
 /// pixel (`0 0 1023 767`: 1024 wide), while experiment programs that set
@@ -503,7 +514,7 @@ impl<'a> Reader<'a> {
     }
 
     fn sample(&mut self, no: usize, line: &str) {
-        let Some(layout) = self.layout.clone() else {
+        let Some(layout) = self.layout.as_ref() else {
             self.rows
                 .reject("sample before any START or SAMPLES line", no, 1, line);
             return;
@@ -517,20 +528,30 @@ impl<'a> Reader<'a> {
             self.rows.reject(&reason, no, 1, line);
             return;
         }
+        let (left, right, n) = (layout.left, layout.right, layout.numeric_fields());
         // Flag columns (`...`, `.....`, remote mode's 13 characters before or after the
         // target columns) are told from values by having no digit and more than one character.
-        let all = fields_of(line);
-        let (flags, f): (Vec<_>, Vec<_>) = all.into_iter().partition(|(_, v)| is_flags(v));
-        let n = layout.numeric_fields();
-        if f.len() != n || flags.len() > 2 {
+        // A million samples are read without allocating: the values go to an array.
+        let mut kept = [(0usize, ""); MAX_SAMPLE_VALUES];
+        let (mut values, mut flags) = (0usize, 0usize);
+        for (col, v) in whitespace_fields(line) {
+            if is_flags(v) {
+                flags += 1;
+            } else {
+                if let Some(slot) = kept.get_mut(values) {
+                    *slot = (col, v);
+                }
+                values += 1;
+            }
+        }
+        if values != n || flags > 2 {
             let reason = format!(
-                "sample with {} values and {} flag fields where the block's SAMPLES line gives {n} values",
-                f.len(),
-                flags.len()
+                "sample with {values} values and {flags} flag fields where the block's SAMPLES line gives {n} values"
             );
             self.rows.reject(&reason, no, 1, line);
             return;
         }
+        let f = &kept[..n];
         let Some(t) = time_us(f[0].1) else {
             self.rows
                 .reject("sample time is not a number of milliseconds", no, 1, line);
@@ -538,7 +559,7 @@ impl<'a> Reader<'a> {
         };
         let mut eyes = [None, None];
         let mut i = 1;
-        for (slot, on) in [(0, layout.left), (1, layout.right)] {
+        for (slot, on) in [(0, left), (1, right)] {
             if !on {
                 continue;
             }
