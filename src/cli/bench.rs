@@ -49,7 +49,9 @@ pub struct BenchArgs {
     pub skip_stimulus: bool,
     /// Only the recording readers' parse speed (SMI format A, EyeLink ASC, Tobii Pro Lab,
     /// Gazepoint, Pupil Core surface; each against SMI A per sample, the fastest of three
-    /// parses, the first one's time beside it), about ten seconds.
+    /// parses, the first one's time beside it), about ten seconds. SMI A parses chunks of rows
+    /// on every core, the table readers (Tobii, Gazepoint, Pupil) scan on a second thread,
+    /// EyeLink uses one: `RAYON_NUM_THREADS=1 meshgaze bench --parse-only` times each on one.
     #[arg(long, conflicts_with_all = ["case", "method", "csv"])]
     pub parse_only: bool,
     /// Only the scoring row: the 50k armadillo's seven maps scored against an 8-subject,
@@ -401,7 +403,13 @@ fn print_study_estimate((maps_s, score_s): (f64, f64), stimulus_s: f64) {
 fn print_smi_parse(data: &Path) -> Result<()> {
     let s = smi_parse_speed(data)?;
     println!(
-        "\nEach parse is the fastest of {PARSE_RUNS} runs on the same bytes; the first run, which takes its memory fresh from the system, is in brackets.\nSMI format A parse (HBN samples repeated, {:.0} MB in memory): {} samples in {:.2} s [{:.2} s] = {:.2} million samples/s (target 1)",
+        "\nEach parse is the fastest of {PARSE_RUNS} runs on the same bytes; the first run, which takes its memory fresh from the system, is in brackets. Threads: {} ({}).\nSMI format A parse (HBN samples repeated, {:.0} MB in memory): {} samples in {:.2} s [{:.2} s] = {:.2} million samples/s (target 1)",
+        rayon::current_num_threads(),
+        if rayon::current_num_threads() > 1 {
+            "SMI A parses chunks of rows on all of them, the table readers scan on a second thread, EyeLink uses one; RAYON_NUM_THREADS=1 times each on one"
+        } else {
+            "every reader on one"
+        },
         s.bytes as f64 / 1e6,
         s.samples,
         s.seconds,
