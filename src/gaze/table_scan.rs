@@ -310,9 +310,10 @@ fn scan<M: Masks, F: FnMut(&LineState, usize, &[usize])>(
     mut line_end: F,
 ) -> usize {
     let sep_byte = plan.sep_byte;
-    // Separators past this many are only counted: a damaged line of millions of separators
-    // must not grow the list with it.
-    let listed_max = plan.wanted.len() + 1;
+    // Separators past the end of the last wanted column are only counted: the fields after
+    // it are never cut (a Pro Lab row's last 15 columns), and a damaged line of millions of
+    // separators must not grow the list with it.
+    let listed_max = plan.wanted_columns.last().map_or(0, |&k| k + 1);
     let mut seps_at: Vec<usize> = vec![0; listed_max + 72];
     let mut line = LineState {
         no: first_no,
