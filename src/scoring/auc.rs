@@ -56,14 +56,30 @@ pub fn auc_judd(saliency: &[f64], positive: &[bool], weights: Option<&[f64]>) ->
         // these half-integers was exact too (far below 2^52), so the result is the same bits.
         let positives = pos.len() as u64;
         let (mut negatives, mut half_units) = (0u64, 0u64);
-        for (&x, &is_positive) in saliency.iter().zip(positive) {
-            if is_positive {
-                continue;
-            }
+        let mut count = |x: f64| {
             let (first_tie, first_above) = place(x);
             negatives += 1;
             half_units += 2 * (positives - first_above as u64) + (first_above - first_tie) as u64;
+        };
+        #[cfg(target_arch = "x86_64")]
+        let (lane_negatives, lane_half_units, from) =
+            if std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("avx512dq")
+            {
+                // SAFETY: this CPU has AVX-512F and AVX-512DQ, checked just above.
+                unsafe { half_units_avx512(saliency, positive, &places, &mut count) }
+            } else {
+                (0, 0, 0)
+            };
+        #[cfg(not(target_arch = "x86_64"))]
+        let (lane_negatives, lane_half_units, from) = (0, 0, 0);
+        for (&x, &is_positive) in saliency[from..].iter().zip(&positive[from..]) {
+            if !is_positive {
+                count(x);
+            }
         }
+        negatives += lane_negatives;
+        half_units += lane_half_units;
         (negatives as f64, half_units as f64 * 0.5)
     } else {
         let (mut total_neg, mut area) = (0.0, 0.0);
@@ -83,6 +99,102 @@ pub fn auc_judd(saliency: &[f64], positive: &[bool], weights: Option<&[f64]>) ->
         return f64::NAN;
     }
     area / (total_pos * total_neg)
+}
+
+/// The unweighted count of [`auc_judd`] over the first `8 ⌊n/8⌋` vertices, eight at a time:
+/// (negatives, half units, vertices done). Each lane computes the scalar code's key, bucket
+/// and branch-free count of its bucket's keys (the same integer and float operations, so the
+/// same places); a lane whose bucket holds more keys than are counted, or whose value ties a
+/// key, is handed to `scalar` (its place needs a search). The sums are integers: the same
+/// result as the scalar loop whatever the order. (Placing one value at a time waited on each
+/// step's load; eight lanes' gathers overlap: scoring places about 100 million values per
+/// mesh.)
+///
+/// # Safety
+/// The CPU must have AVX-512F and AVX-512DQ.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512dq")]
+unsafe fn half_units_avx512(
+    saliency: &[f64],
+    positive: &[bool],
+    places: &KeyPlaces,
+    scalar: &mut impl FnMut(f64),
+) -> (u64, u64, usize) {
+    use std::arch::x86_64::*;
+    let n = saliency.len().min(positive.len());
+    let done = n / 8 * 8;
+    let positives = (places.padded.len() - KeyPlaces::COUNTED) as i64;
+    let lowest = _mm512_set1_epi64(places.lowest);
+    let scale = _mm512_set1_pd(places.scale);
+    let last_bucket = _mm512_set1_epi64((places.start.len() - 2) as i64);
+    let one = _mm512_set1_epi64(1);
+    let counted = _mm512_set1_epi64(KeyPlaces::COUNTED as i64);
+    let two_positives = _mm512_set1_epi64(2 * positives);
+    let start = places.start.as_ptr().cast::<i32>();
+    let padded = places.padded.as_ptr().cast::<i64>();
+    let mut sums = _mm512_setzero_si512();
+    let mut negatives = 0u64;
+    let mut i = 0;
+    while i < done {
+        // SAFETY: i + 8 <= n, so the eight loads are inside `saliency` and `positive`.
+        let (x, flags) = unsafe {
+            (
+                _mm512_loadu_pd(saliency.as_ptr().add(i)),
+                positive.as_ptr().add(i).cast::<u64>().read_unaligned(),
+            )
+        };
+        // A bool is one byte, 0 or 1: lane k is a negative when byte k is 0.
+        let mut negative: __mmask8 = 0;
+        for k in 0..8 {
+            negative |= u8::from((flags >> (8 * k)) & 0xff == 0) << k;
+        }
+        let bits = _mm512_castpd_si512(x);
+        // total_order_key: bits ^ ((bits >> 63 as u64) >> 1).
+        let key = _mm512_xor_si512(bits, _mm512_srli_epi64::<1>(_mm512_srai_epi64::<63>(bits)));
+        // bucket: ((max(key, lowest) − lowest) as u64 as f64 × scale) as usize, at most the last.
+        let offset = _mm512_sub_epi64(_mm512_max_epi64(key, lowest), lowest);
+        let scaled = _mm512_mul_pd(_mm512_cvtepu64_pd(offset), scale);
+        let bucket = _mm512_min_epu64(_mm512_cvttpd_epu64(scaled), last_bucket);
+        // SAFETY: bucket ≤ start.len() − 2, so bucket and bucket + 1 index `start`.
+        let (from, to) = unsafe {
+            (
+                _mm512_cvtepu32_epi64(_mm512_i64gather_epi32::<4>(bucket, start)),
+                _mm512_cvtepu32_epi64(_mm512_i64gather_epi32::<4>(
+                    _mm512_add_epi64(bucket, one),
+                    start,
+                )),
+            )
+        };
+        let full = _mm512_cmpgt_epi64_mask(_mm512_sub_epi64(to, from), counted);
+        let mut below = _mm512_setzero_si512();
+        for t in 0..KeyPlaces::COUNTED as i64 {
+            let at = _mm512_add_epi64(from, _mm512_set1_epi64(t));
+            // SAFETY: from ≤ keys, so from + t < keys + COUNTED = padded.len().
+            let k = unsafe { _mm512_i64gather_epi64::<8>(at, padded) };
+            let inside = _mm512_cmplt_epi64_mask(at, to);
+            let less = _mm512_mask_cmplt_epi64_mask(inside, k, key);
+            below = _mm512_mask_add_epi64(below, less, below, one);
+        }
+        let first_tie = _mm512_add_epi64(from, below);
+        // SAFETY: first_tie ≤ keys < padded.len().
+        let at_tie = unsafe { _mm512_i64gather_epi64::<8>(first_tie, padded) };
+        let tied = _mm512_cmpeq_epi64_mask(at_tie, key);
+        let by_scalar = negative & (full | tied);
+        let by_lanes = negative & !by_scalar;
+        // No tie: first_above = first_tie, so the lane adds 2 (positives − first_tie).
+        let add = _mm512_sub_epi64(two_positives, _mm512_add_epi64(first_tie, first_tie));
+        sums = _mm512_mask_add_epi64(sums, by_lanes, sums, add);
+        negatives += u64::from(by_lanes.count_ones());
+        if by_scalar != 0 {
+            for k in 0..8 {
+                if by_scalar >> k & 1 == 1 {
+                    scalar(saliency[i + k]);
+                }
+            }
+        }
+        i += 8;
+    }
+    (negatives, _mm512_reduce_add_epi64(sums) as u64, done)
 }
 
 /// Sorted keys with a table of equal-width buckets over their range: `start[b]` is the number
@@ -322,6 +434,44 @@ mod tests {
             auc_judd(&s, &p, None).to_bits(),
             auc_judd(&s, &p, Some(&ones)).to_bits()
         );
+    }
+
+    /// The unweighted count (eight lanes at a time where the CPU allows) against the weighted
+    /// one with unit weights (one value at a time), bit for bit, on maps that send lanes every
+    /// way: ties with positives, buckets fuller than the lanes count, zeros, infinities, −0,
+    /// NaN, lengths that leave a tail.
+    #[test]
+    fn eight_lanes_count_as_one_value_at_a_time() {
+        let mut rng = ChaCha8Rng::seed_from_u64(29);
+        let specials = [
+            f64::NEG_INFINITY,
+            -0.0,
+            0.0,
+            f64::INFINITY,
+            f64::NAN,
+            1e-310,
+        ];
+        for round in 0..120 {
+            let n = rng.random_range(1..3000);
+            let s: Vec<f64> = (0..n)
+                .map(|_| match round % 4 {
+                    0 => rng.random_range(0..7) as f64,
+                    1 => rng.random::<f64>().powi(4),
+                    2 if rng.random_bool(0.9) => 0.0,
+                    2 => rng.random::<f64>(),
+                    _ if rng.random_bool(0.1) => specials[rng.random_range(0..specials.len())],
+                    _ => rng.random_range(-1.0..1.0) * 10f64.powi(rng.random_range(-200..200)),
+                })
+                .collect();
+            let p: Vec<bool> = (0..n).map(|_| rng.random_bool(0.05)).collect();
+            let ones = vec![1.0; n];
+            let lanes = auc_judd(&s, &p, None);
+            let one_by_one = auc_judd(&s, &p, Some(&ones));
+            assert!(
+                lanes.to_bits() == one_by_one.to_bits() || (lanes.is_nan() && one_by_one.is_nan()),
+                "round {round}: {lanes} vs {one_by_one}"
+            );
+        }
     }
 
     #[test]
