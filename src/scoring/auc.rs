@@ -67,7 +67,7 @@ pub fn auc_judd(saliency: &[f64], positive: &[bool], weights: Option<&[f64]>) ->
                 && std::arch::is_x86_feature_detected!("avx512dq")
             {
                 // SAFETY: this CPU has AVX-512F and AVX-512DQ, checked just above.
-                unsafe { half_units_avx512(saliency, positive, &places, &mut count) }
+                unsafe { half_units_avx512(saliency, positive, &places) }
             } else {
                 (0, 0, 0)
             };
@@ -104,11 +104,13 @@ pub fn auc_judd(saliency: &[f64], positive: &[bool], weights: Option<&[f64]>) ->
 /// The unweighted count of [`auc_judd`] over the first `8 ⌊n/8⌋` vertices, eight at a time:
 /// (negatives, half units, vertices done). Each lane computes the scalar code's key, bucket
 /// and branch-free count of its bucket's keys (the same integer and float operations, so the
-/// same places); a lane whose bucket holds more keys than are counted, or whose value ties a
-/// key, is handed to `scalar` (its place needs a search). The sums are integers: the same
-/// result as the scalar loop whatever the order. (Placing one value at a time waited on each
-/// step's load; eight lanes' gathers overlap: scoring places about 100 million values per
-/// mesh.)
+/// same places). A lane whose bucket holds more keys than are counted, or whose value ties a
+/// key, is placed by a search, and that key's place is kept: a lane with the kept key takes
+/// it (a sparse map's zeros, tied with many positives, are placed once), and when only one
+/// or two lanes are left they are searched alone. The sums are
+/// integers: the same result as the scalar loop whatever the order. (Placing one value at a
+/// time waited on each step's load; eight lanes' gathers overlap: scoring places about 100
+/// million values per mesh.)
 ///
 /// # Safety
 /// The CPU must have AVX-512F and AVX-512DQ.
@@ -118,12 +120,22 @@ unsafe fn half_units_avx512(
     saliency: &[f64],
     positive: &[bool],
     places: &KeyPlaces,
-    scalar: &mut impl FnMut(f64),
 ) -> (u64, u64, usize) {
     use std::arch::x86_64::*;
     let n = saliency.len().min(positive.len());
     let done = n / 8 * 8;
     let positives = (places.padded.len() - KeyPlaces::COUNTED) as i64;
+    // What a negative with this key adds, in half units: 2 (above) + (tied).
+    let searched = |key: i64| {
+        let first_tie = places.first_not_below(key) as i64;
+        let first_above = if places.padded[first_tie as usize] == key {
+            places.first_above(key) as i64
+        } else {
+            first_tie
+        };
+        2 * positives - first_above - first_tie
+    };
+    let (mut kept_key, mut kept_add) = (i64::MIN, searched(i64::MIN));
     let lowest = _mm512_set1_epi64(places.lowest);
     let scale = _mm512_set1_pd(places.scale);
     let last_bucket = _mm512_set1_epi64((places.start.len() - 2) as i64);
@@ -131,8 +143,9 @@ unsafe fn half_units_avx512(
     let counted = _mm512_set1_epi64(KeyPlaces::COUNTED as i64);
     let two_positives = _mm512_set1_epi64(2 * positives);
     let start = places.start.as_ptr().cast::<i32>();
-    let padded = places.padded.as_ptr().cast::<i64>();
+    let padded = places.padded.as_ptr();
     let mut sums = _mm512_setzero_si512();
+    let mut searched_sum = 0i64;
     let mut negatives = 0u64;
     let mut i = 0;
     while i < done {
@@ -148,9 +161,24 @@ unsafe fn half_units_avx512(
         for k in 0..8 {
             negative |= u8::from((flags >> (8 * k)) & 0xff == 0) << k;
         }
+        negatives += u64::from(negative.count_ones());
         let bits = _mm512_castpd_si512(x);
         // total_order_key: bits ^ ((bits >> 63 as u64) >> 1).
         let key = _mm512_xor_si512(bits, _mm512_srli_epi64::<1>(_mm512_srai_epi64::<63>(bits)));
+        let kept = negative & _mm512_cmpeq_epi64_mask(key, _mm512_set1_epi64(kept_key));
+        sums = _mm512_mask_add_epi64(sums, kept, sums, _mm512_set1_epi64(kept_add));
+        let open = negative & !kept;
+        if open.count_ones() <= 2 {
+            // A sparse map's few values among its kept zeros: one search each costs less
+            // than the eight lanes' gathers.
+            for k in 0..8 {
+                if open >> k & 1 == 1 {
+                    searched_sum += searched(total_order_key(saliency[i + k]));
+                }
+            }
+            i += 8;
+            continue;
+        }
         // bucket: ((max(key, lowest) − lowest) as u64 as f64 × scale) as usize, at most the last.
         let offset = _mm512_sub_epi64(_mm512_max_epi64(key, lowest), lowest);
         let scaled = _mm512_mul_pd(_mm512_cvtepu64_pd(offset), scale);
@@ -179,22 +207,27 @@ unsafe fn half_units_avx512(
         // SAFETY: first_tie ≤ keys < padded.len().
         let at_tie = unsafe { _mm512_i64gather_epi64::<8>(first_tie, padded) };
         let tied = _mm512_cmpeq_epi64_mask(at_tie, key);
-        let by_scalar = negative & (full | tied);
-        let by_lanes = negative & !by_scalar;
+        let by_search = open & (full | tied);
         // No tie: first_above = first_tie, so the lane adds 2 (positives − first_tie).
         let add = _mm512_sub_epi64(two_positives, _mm512_add_epi64(first_tie, first_tie));
-        sums = _mm512_mask_add_epi64(sums, by_lanes, sums, add);
-        negatives += u64::from(by_lanes.count_ones());
-        if by_scalar != 0 {
-            for k in 0..8 {
-                if by_scalar >> k & 1 == 1 {
-                    scalar(saliency[i + k]);
+        sums = _mm512_mask_add_epi64(sums, open & !by_search, sums, add);
+        if by_search != 0 {
+            let mut keys = [0i64; 8];
+            // SAFETY: `keys` holds eight i64, what one unaligned 512-bit store writes.
+            unsafe { _mm512_storeu_si512(keys.as_mut_ptr().cast(), key) };
+            for (k, &lane_key) in keys.iter().enumerate() {
+                if by_search >> k & 1 == 1 {
+                    if lane_key != kept_key {
+                        (kept_key, kept_add) = (lane_key, searched(lane_key));
+                    }
+                    searched_sum += kept_add;
                 }
             }
         }
         i += 8;
     }
-    (negatives, _mm512_reduce_add_epi64(sums) as u64, done)
+    let half_units = _mm512_reduce_add_epi64(sums) + searched_sum;
+    (negatives, half_units as u64, done)
 }
 
 /// Sorted keys with a table of equal-width buckets over their range: `start[b]` is the number
