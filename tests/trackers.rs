@@ -692,3 +692,62 @@ fn a_tobii_pro_sdk_dump_gives_its_fixations_scaled_to_the_screen() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A Tobii Pro Lab export large enough for the readers' second thread (its rows repeated 12
+/// times, times shifted, about 6 MB), ingested by the binary on rayon's default threads and
+/// with `RAYON_NUM_THREADS=1`: the same fixations, messages and quality bytes.
+#[test]
+#[cfg_attr(no_shared_data, ignore = "needs ../shared/data")]
+fn a_large_pro_lab_export_ingests_the_same_on_one_thread_and_on_two() {
+    let src = tracker_files("tobii", "tobii-pro__all_gaze.csv").remove(0);
+    let text = std::fs::read_to_string(&src).unwrap();
+    let mut lines = text.lines();
+    let head = lines.next().unwrap();
+    let rows: Vec<(i64, &str)> = lines
+        .filter(|l| !l.is_empty())
+        .map(|l| {
+            let (t, rest) = l.split_once(',').unwrap();
+            (t.parse::<i64>().unwrap(), rest)
+        })
+        .collect();
+    let span = rows.iter().map(|r| r.0).max().unwrap() - rows.iter().map(|r| r.0).min().unwrap();
+    let mut big = format!("{head}\n");
+    for k in 0..12 {
+        for (t, rest) in &rows {
+            big.push_str(&format!("{},{rest}\n", t + k * (span + 10_000)));
+        }
+    }
+    assert!(
+        big.len() > 4 << 20,
+        "{} bytes: too small for the second thread",
+        big.len()
+    );
+    let dir = std::env::temp_dir().join(format!("meshgaze-big-prolab-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let input = dir.join("big_prolab.csv");
+    std::fs::write(&input, &big).unwrap();
+    let ingest = |threads: Option<&str>, out: &str| {
+        let mut c = std::process::Command::new(env!("CARGO_BIN_EXE_meshgaze"));
+        c.arg("ingest").arg(&input).arg("-o").arg(dir.join(out));
+        if let Some(n) = threads {
+            c.env("RAYON_NUM_THREADS", n);
+        }
+        let done = c.output().unwrap();
+        assert!(
+            done.status.success(),
+            "{}",
+            String::from_utf8_lossy(&done.stderr)
+        );
+    };
+    ingest(None, "default");
+    ingest(Some("1"), "one");
+    for file in ["fixations.csv", "messages.csv", "quality.csv"] {
+        let a = std::fs::read(dir.join("default").join(file)).unwrap();
+        let b = std::fs::read(dir.join("one").join(file)).unwrap();
+        assert!(!a.is_empty(), "{file} is empty");
+        assert!(a == b, "{file} differs between the default threads and one");
+    }
+    let fixations = std::fs::read_to_string(dir.join("one").join("fixations.csv")).unwrap();
+    assert!(fixations.lines().count() > 12, "{fixations}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
