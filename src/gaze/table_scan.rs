@@ -296,11 +296,11 @@ unsafe fn scan_avx512(
 
 /// The block walk of [`for_each_row`], with the block masks of `M`.
 ///
-/// Every separator of a line (up to one past the table's columns) is written to a list as
-/// the blocks go by, eight bit positions at a time without a branch per separator; the wanted
-/// fields are then read off that list at the line's end. (Walking the separators one by one,
-/// skipping unwanted columns by bit counts, spent most of its time on the branch and table
-/// lookup of each step: the list makes the Tobii Pro Lab scan about a third faster.)
+/// A line's separators, up to the end of the last wanted column, are written to a list as
+/// the blocks go by (those after it only counted), and `line_end` gets the list at the
+/// line's end: the wanted fields are cut from it there, on whichever thread runs the cut.
+/// (On one thread this is as fast as the earlier walk that skipped unwanted columns by bit
+/// counts; it is what lets the scan and the rows run on two.)
 #[inline(always)]
 fn scan<M: Masks, F: FnMut(&LineState, usize, &[usize])>(
     plan: &Plan<'_>,
@@ -718,6 +718,21 @@ mod tests {
         out
     }
 
+    /// A row as owned text: number, line, its wanted fields (None when it came without
+    /// fields), count (0 then), last field.
+    fn owned(r: &Row<'_>, wanted: &[bool]) -> Expected {
+        let fields = r.fields.map(|f| {
+            f[..r.count.min(f.len())]
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| wanted.get(*k) == Some(&true))
+                .map(|(_, (c, f))| (*c, f.to_string()))
+                .collect()
+        });
+        let count = if r.fields.is_none() { 0 } else { r.count };
+        (r.no, r.line.to_string(), fields, count, r.last.to_string())
+    }
+
     /// Which compiled scan reads the rows: 0 as the CPU allows, 1 portable, 2 bit counts,
     /// 3 AVX-512, 4 the scan on a second thread in batches of two lines (1–4 only for byte
     /// separators; 2 and 3 only where the CPU has them).
@@ -732,18 +747,7 @@ mod tests {
             return (Vec::new(), 0);
         };
         let mut out = Vec::new();
-        let each = |r: Row<'_>| {
-            let fields = r.fields.map(|f| {
-                f[..r.count.min(f.len())]
-                    .iter()
-                    .enumerate()
-                    .filter(|(k, _)| wanted.get(*k) == Some(&true))
-                    .map(|(_, (c, f))| (*c, f.to_string()))
-                    .collect()
-            });
-            let count = if r.fields.is_none() { 0 } else { r.count };
-            out.push((r.no, r.line.to_string(), fields, count, r.last.to_string()));
-        };
+        let each = |r: Row<'_>| out.push(owned(&r, wanted));
         let Some(plan) = Plan::new(sep, wanted, stop).filter(|_| kernel > 0) else {
             let last_no = for_each_row(bytes, from, 2, sep, wanted, stop, each);
             return (out, last_no);
@@ -859,23 +863,7 @@ mod tests {
         let (_, from) = first_line(bytes).expect("a header line");
         let plan = Plan::new(sep, wanted, true).expect("a byte separator");
         let mut out = Vec::new();
-        let each = |r: Row<'_>| {
-            let fields = r.fields.map(|f| {
-                f[..r.count.min(f.len())]
-                    .iter()
-                    .enumerate()
-                    .filter(|(k, _)| wanted[*k])
-                    .map(|(_, (c, f))| (*c, f.to_string()))
-                    .collect()
-            });
-            out.push((
-                r.no,
-                r.line.to_string(),
-                fields,
-                r.count,
-                r.last.to_string(),
-            ));
-        };
+        let each = |r: Row<'_>| out.push(owned(&r, wanted));
         let last_no = if pipelined {
             rows_pipelined(&plan, bytes, from, 2, BATCH_LINES, each)
         } else {
