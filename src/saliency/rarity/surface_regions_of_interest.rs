@@ -249,8 +249,8 @@ struct PairScratch {
     discount: Vec<f64>,
     path: Vec<f64>,
     rows: Vec<Vec<f64>>,
-    /// Row i without its own entry and padding, for the selection to reorder.
-    others: Vec<f64>,
+    /// The k smallest of a row seen so far, as total-order keys (largest on top).
+    smallest: std::collections::BinaryHeap<i64>,
 }
 
 impl PairScratch {
@@ -260,19 +260,76 @@ impl PairScratch {
             discount: vec![0.0; stride],
             path: vec![0.0; n],
             rows: vec![vec![0.0; stride]; scales],
-            others: Vec::with_capacity(n),
+            smallest: std::collections::BinaryHeap::with_capacity(PAIR_BLOCK),
         }
     }
 
     /// Mean of the k smallest d(i, j), j ≠ i, at radius s.
     fn mean_of_smallest(&mut self, s: usize, i: usize, n: usize, k: usize) -> f64 {
-        let row = &self.rows[s];
-        self.others.clear();
-        self.others.extend_from_slice(&row[..i]);
-        self.others.extend_from_slice(&row[i + 1..n]);
-        self.others.select_nth_unstable_by(k - 1, f64::total_cmp);
-        self.others[..k].iter().sum::<f64>() / k as f64
+        mean_of_k_smallest(&self.rows[s][..n], i, k, &mut self.smallest)
     }
+}
+
+/// f64's total order (`f64::total_cmp`) as an integer key.
+fn total_order_key(x: f64) -> i64 {
+    let bits = x.to_bits() as i64;
+    bits ^ ((((bits >> 63) as u64) >> 1) as i64)
+}
+
+/// The inverse of [`total_order_key`].
+fn from_total_order_key(key: i64) -> f64 {
+    f64::from_bits((key ^ ((((key >> 63) as u64) >> 1) as i64)) as u64)
+}
+
+/// Mean of the k smallest values of `row` other than `row[skip]` (by `f64::total_cmp`; all
+/// of them if fewer), summed in ascending order. One pass keeping the k smallest so far in a
+/// max-heap: a block of 64 values is looked at one by one only if one of them is not above
+/// the heap's top (a test that runs on whole vectors), which after the first blocks is rare,
+/// where a quickselect of the whole row moved every value several times.
+fn mean_of_k_smallest(
+    row: &[f64],
+    skip: usize,
+    k: usize,
+    heap: &mut std::collections::BinaryHeap<i64>,
+) -> f64 {
+    const BLOCK: usize = 64;
+    heap.clear();
+    let mut top = f64::NAN;
+    for (b, block) in row.chunks(BLOCK).enumerate() {
+        let start = b * BLOCK;
+        let full = heap.len() >= k;
+        // `!(x > top)` also holds for NaN (and for any x when top is NaN): such blocks take
+        // the exact path, so the test only ever skips blocks of values above the top.
+        #[allow(clippy::neg_cmp_op_on_partial_ord)] // NaN must count as a candidate
+        let candidate = block.iter().fold(false, |any, &x| any | !(x > top));
+        if full && !candidate && !(start..start + block.len()).contains(&skip) {
+            continue;
+        }
+        for (t, &x) in block.iter().enumerate() {
+            if start + t == skip {
+                continue;
+            }
+            let key = total_order_key(x);
+            if heap.len() < k {
+                heap.push(key);
+            } else if heap.peek().is_some_and(|&largest| key < largest) {
+                if let Some(mut largest) = heap.peek_mut() {
+                    *largest = key;
+                }
+            } else {
+                continue;
+            }
+            if heap.len() >= k {
+                top = heap
+                    .peek()
+                    .map_or(f64::NAN, |&key| from_total_order_key(key));
+            }
+        }
+    }
+    let mut kept: Vec<i64> = heap.drain().collect();
+    kept.sort_unstable();
+    let count = kept.len().max(1);
+    kept.into_iter().map(from_total_order_key).sum::<f64>() / count as f64
 }
 
 impl PairTerms<'_> {
@@ -440,6 +497,51 @@ fn extremity_patches(
 mod tests {
     use super::*;
     use glam::DVec3;
+
+    /// The heap's mean equals sorting the whole row by `total_cmp` and summing the k first in
+    /// order, bit for bit, on rows with ties, zeros, −0, infinities and fewer values than k.
+    #[test]
+    fn the_k_smallest_mean_equals_sorting_the_row() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        let mut heap = std::collections::BinaryHeap::new();
+        for case in 0..400 {
+            let n = (next() % 700) as usize;
+            let k = 1 + (next() % 80) as usize;
+            let row: Vec<f64> = (0..n)
+                .map(|_| match next() % 10 {
+                    0 => 0.0,
+                    1 => -0.0,
+                    2 => 0.25,
+                    3 if case % 7 == 0 => f64::INFINITY,
+                    4 if case % 11 == 0 => f64::NAN,
+                    _ => (next() % 1_000_000) as f64 / 7919.0,
+                })
+                .collect();
+            let mut sorted = row.clone();
+            sorted.sort_by(f64::total_cmp);
+            let take = k.min(n);
+            let want = sorted[..take].iter().sum::<f64>() / take.max(1) as f64;
+            let got = mean_of_k_smallest(&row, n, k, &mut heap);
+            assert_eq!(got.to_bits(), want.to_bits(), "case {case}: n {n}, k {k}");
+            // Leaving one value out is the same as removing it from the row.
+            if n > 0 {
+                let skip = (next() % n as u64) as usize;
+                let mut rest = row.clone();
+                rest.remove(skip);
+                rest.sort_by(f64::total_cmp);
+                let take = k.min(n - 1);
+                let want = rest[..take].iter().sum::<f64>() / take.max(1) as f64;
+                let got = mean_of_k_smallest(&row, skip, k, &mut heap);
+                assert_eq!(got.to_bits(), want.to_bits(), "case {case}: skip {skip}");
+            }
+        }
+    }
 
     /// d(i, j) as the pair loop first computed it, one pair at a time: row-major f32
     /// descriptors, their 8-lane distance summed in lane order, glam's straight distance.
