@@ -45,7 +45,8 @@ struct SourceCells {
     ys: Vec<f32>,
     zs: Vec<f32>,
     areas: Vec<f32>,
-    /// `padded` values per source: 1 (the denominator), the k channels, zeros.
+    /// `padded` values per source: 1 (the denominator), the k channels, zeros up to the
+    /// kernel's row width ([`row_width`]).
     values: Vec<f32>,
     padded: usize,
     /// Each cell's sources' bounding box (lo, hi), tighter than the cell where the surface
@@ -97,7 +98,7 @@ pub(crate) fn cut_gaussian_sums_at(
     if n == 0 || sources.is_empty() {
         return (vec![0.0; n], vec![0.0; n * k]);
     }
-    let grid = source_cells(sources, areas, rows, k, radius);
+    let grid = source_cells(sources, areas, rows, k, radius, row_width(k));
     let targets = morton_order(positions, &grid);
     let inv = (1.0 / (2.0 * sigma * sigma)) as f32;
     let r2 = (radius * radius) as f32;
@@ -117,12 +118,33 @@ pub(crate) fn cut_gaussian_sums_at(
     (den, num)
 }
 
+/// Values per source row for k channels and the denominator: what the kernel that
+/// [`block_sums_dispatch`] picks on this CPU reads. The AVX-512 and portable kernels take
+/// whole groups of [`GROUP`]; the AVX2 one any width, so its rows carry no padding (28
+/// channels rather than 32 for the seven maps and 20 chance maps of a score).
+fn row_width(k: usize) -> usize {
+    #[cfg(target_arch = "x86_64")]
+    if uses_avx2_kernel() {
+        return k + 1;
+    }
+    (k + 1).div_ceil(GROUP) * GROUP
+}
+
+/// Whether [`block_sums_dispatch`] runs the AVX2 kernel here.
+#[cfg(target_arch = "x86_64")]
+fn uses_avx2_kernel() -> bool {
+    !std::arch::is_x86_feature_detected!("avx512f")
+        && std::arch::is_x86_feature_detected!("avx2")
+        && std::arch::is_x86_feature_detected!("fma")
+}
+
 fn source_cells(
     positions: &[DVec3],
     areas: &[f64],
     rows: &[f64],
     k: usize,
     radius: f64,
+    padded: usize,
 ) -> SourceCells {
     let (lo, hi) = positions
         .iter()
@@ -134,7 +156,7 @@ fn source_cells(
         .max(extent / MAX_CELLS_PER_AXIS)
         .max(f64::MIN_POSITIVE);
     let dims = [0, 1, 2].map(|a| ((hi[a] - lo[a]) / cell).floor() as usize + 1);
-    let padded = (k + 1).div_ceil(GROUP) * GROUP;
+    debug_assert!(padded > k);
     let mut grid = SourceCells {
         origin: lo,
         cell,
@@ -224,9 +246,8 @@ fn block_sums_dispatch(
             // SAFETY: the CPU has AVX-512F, checked just above.
             return unsafe { block_sums_avx512(grid, positions, block, inv, radius, r2) };
         }
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            // SAFETY: the CPU has AVX2 and FMA, checked just above.
+        if uses_avx2_kernel() {
+            // SAFETY: the CPU has AVX2 and FMA, checked by uses_avx2_kernel.
             return unsafe { block_sums_avx2(grid, positions, block, inv, radius, r2) };
         }
     }
@@ -264,15 +285,7 @@ fn block_sums_avx2(
     radius: f64,
     r2: f32,
 ) -> Vec<f64> {
-    block_sums(
-        grid,
-        positions,
-        block,
-        inv,
-        radius,
-        r2,
-        GroupKernel::Portable,
-    )
+    block_sums(grid, positions, block, inv, radius, r2, GroupKernel::Avx2)
 }
 
 /// Which code multiplies the weights by the maps: chosen once per block by the caller that
@@ -284,6 +297,9 @@ enum GroupKernel {
     /// AVX-512 registers; only `block_sums_avx512` passes it.
     #[cfg(target_arch = "x86_64")]
     Avx512,
+    /// AVX2 registers, half a group per pass; only `block_sums_avx2` passes it.
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
 }
 
 /// One block's totals: `padded` values per target (denominator first), over every cell
@@ -392,6 +408,14 @@ impl Pending {
     fn flush(&mut self, grid: &SourceCells, totals: &mut [f64], kernel: GroupKernel) {
         let p = grid.padded;
         let (weights, sources) = (&self.weights[..self.len], &self.sources[..self.len]);
+        #[cfg(target_arch = "x86_64")]
+        if let GroupKernel::Avx2 = kernel {
+            // SAFETY: only block_sums_avx2 passes Avx2, and it is called only where the CPU
+            // has AVX2 and FMA (block_sums_dispatch checks).
+            unsafe { add_chunk_sums_avx2(weights, sources, &grid.values, p, totals) };
+            self.len = 0;
+            return;
+        }
         for g in (0..p).step_by(GROUP) {
             let acc = group_sums(weights, sources, &grid.values, p, g, kernel);
             for c in 0..GROUP {
@@ -421,6 +445,10 @@ fn group_sums(
         // has AVX-512F (block_sums_dispatch checks).
         #[cfg(target_arch = "x86_64")]
         GroupKernel::Avx512 => unsafe { group_sums_avx512(weights, sources, values, p, g) },
+        // Avx2 sums whole rows (`add_chunk_sums_avx2`), never one group: the portable code
+        // stands in, with the same bits.
+        #[cfg(target_arch = "x86_64")]
+        GroupKernel::Avx2 => group_sums_plain(weights, sources, values, p, g),
     }
 }
 
@@ -472,6 +500,81 @@ fn group_sums_avx512(
         unsafe { _mm512_storeu_ps(out[c].as_mut_ptr(), acc[c]) };
     }
     out
+}
+
+/// Adds each of a chunk's `p` channel sums (Σ_j w_j · x_j[c], lane by lane, one fused
+/// multiply-add per term in source order, as [`group_sums`]) to the f64 totals, in AVX2
+/// registers. A group's eight channels x 16 lanes would need all sixteen ymm registers (the
+/// compiler kept half on the stack); four channels (eight accumulators) leave the FMA units
+/// waiting on their 4-cycle latency, so passes take six channels: twelve accumulators, the
+/// two weight registers and a broadcast. A row of p channels is passes of six and one of the rest (rows are not padded for it: [`row_width`]). Each accumulator sees the same operations in the same order as
+/// the portable code, and each chunk's f32 sum is added to the totals once: the same bits.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn add_chunk_sums_avx2(
+    weights: &[[f32; BLOCK]],
+    sources: &[u32],
+    values: &[f32],
+    p: usize,
+    totals: &mut [f64],
+) {
+    let mut first = 0;
+    while first < p {
+        match p - first {
+            1 => channel_pass_avx2::<1>(weights, sources, values, p, first, totals),
+            2 => channel_pass_avx2::<2>(weights, sources, values, p, first, totals),
+            3 => channel_pass_avx2::<3>(weights, sources, values, p, first, totals),
+            4 => channel_pass_avx2::<4>(weights, sources, values, p, first, totals),
+            5 => channel_pass_avx2::<5>(weights, sources, values, p, first, totals),
+            _ => channel_pass_avx2::<6>(weights, sources, values, p, first, totals),
+        }
+        first += (p - first).min(6);
+    }
+}
+
+/// One pass of [`add_chunk_sums_avx2`]: channels `first..first + W`.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+fn channel_pass_avx2<const W: usize>(
+    weights: &[[f32; BLOCK]],
+    sources: &[u32],
+    values: &[f32],
+    p: usize,
+    first: usize,
+    totals: &mut [f64],
+) {
+    use std::arch::x86_64::*;
+    let mut low = [_mm256_setzero_ps(); W];
+    let mut high = [_mm256_setzero_ps(); W];
+    for (w, &u) in weights.iter().zip(sources) {
+        let start = u as usize * p + first;
+        let x: &[f32; W] = values[start..start + W]
+            .try_into()
+            .expect("a source's row holds p channels");
+        // SAFETY: `w` holds exactly 16 f32: two unaligned 256-bit loads of 8.
+        let (w_low, w_high) = unsafe {
+            (
+                _mm256_loadu_ps(w.as_ptr()),
+                _mm256_loadu_ps(w.as_ptr().add(8)),
+            )
+        };
+        for c in 0..W {
+            let xc = _mm256_set1_ps(x[c]);
+            low[c] = _mm256_fmadd_ps(w_low, xc, low[c]);
+            high[c] = _mm256_fmadd_ps(w_high, xc, high[c]);
+        }
+    }
+    for c in 0..W {
+        let mut lanes = [0.0f32; BLOCK];
+        // SAFETY: `lanes` holds 16 f32: two unaligned 256-bit stores of 8.
+        unsafe {
+            _mm256_storeu_ps(lanes.as_mut_ptr(), low[c]);
+            _mm256_storeu_ps(lanes.as_mut_ptr().add(8), high[c]);
+        }
+        for (t, &sum) in lanes.iter().enumerate() {
+            totals[t * p + first + c] += sum as f64;
+        }
+    }
 }
 
 /// Squared distance between two boxes (lo, hi).
@@ -546,8 +649,11 @@ mod tests {
         }
     }
 
+    /// Each register kernel this CPU can run against the portable code, bit for bit. On a CPU
+    /// with neither (not x86-64, or x86-64 without AVX2) it says so on stderr and compares
+    /// nothing: those kernels are then never called either.
     #[test]
-    fn the_register_kernel_gives_the_portable_bytes() {
+    fn the_register_kernels_give_the_portable_bytes() {
         let weights: Vec<[f32; BLOCK]> = (0..CHUNK)
             .map(|j| std::array::from_fn(|t| ((j * 31 + t * 7) % 101) as f32 / 37.0))
             .collect();
@@ -556,22 +662,57 @@ mod tests {
         let values: Vec<f32> = (0..200 * p)
             .map(|i| ((i * 7919) % 1000) as f32 / 300.0 - 1.0)
             .collect();
-        #[cfg(target_arch = "x86_64")]
-        if !std::arch::is_x86_feature_detected!("avx512f") {
-            eprintln!("no AVX-512 on this CPU: the register kernel is not compared here");
-            return;
-        }
+        let mut compared = Vec::new();
         for g in [0, GROUP] {
-            let plain = group_sums_plain(&weights, &sources, &values, p, g);
+            let plain =
+                group_sums_plain(&weights, &sources, &values, p, g).map(|a| a.map(f32::to_bits));
             #[cfg(target_arch = "x86_64")]
-            // SAFETY: the CPU has AVX-512F, checked above.
-            let fast = unsafe { group_sums_avx512(&weights, &sources, &values, p, g) };
-            #[cfg(not(target_arch = "x86_64"))]
-            let fast = plain;
-            assert_eq!(
-                plain.map(|a| a.map(f32::to_bits)),
-                fast.map(|a| a.map(f32::to_bits))
-            );
+            {
+                if std::arch::is_x86_feature_detected!("avx512f") {
+                    // SAFETY: the CPU has AVX-512F, checked just above.
+                    let fast = unsafe { group_sums_avx512(&weights, &sources, &values, p, g) };
+                    assert_eq!(
+                        plain,
+                        fast.map(|a| a.map(f32::to_bits)),
+                        "AVX-512, group {g}"
+                    );
+                    compared.push("AVX-512");
+                }
+            }
+        }
+        // The AVX2 kernel sums whole rows into f64 totals, rows of any width (passes of 6 and
+        // one of 1 to 5), into totals that already hold values, each channel as the portable
+        // code sums it: one fused multiply-add per source, in order, from zero.
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        {
+            for p in [1, 5, 8, 16, 28, 109, 112] {
+                let values: Vec<f32> = (0..200 * p)
+                    .map(|i| ((i * 7919) % 1000) as f32 / 300.0 - 1.0)
+                    .collect();
+                let start: Vec<f64> = (0..BLOCK * p).map(|i| (i % 13) as f64 * 0.37).collect();
+                let mut plain = start.clone();
+                for c in 0..p {
+                    for t in 0..BLOCK {
+                        let sum = weights.iter().zip(&sources).fold(0.0f32, |acc, (w, &u)| {
+                            w[t].mul_add(values[u as usize * p + c], acc)
+                        });
+                        plain[t * p + c] += sum as f64;
+                    }
+                }
+                let mut fast = start.clone();
+                // SAFETY: the CPU has AVX2 and FMA, checked just above.
+                unsafe { add_chunk_sums_avx2(&weights, &sources, &values, p, &mut fast) };
+                assert_eq!(
+                    plain.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                    fast.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                    "AVX2, {p} channels"
+                );
+            }
+            compared.push("AVX2");
+        }
+        if compared.is_empty() {
+            eprintln!("this CPU runs no register kernel: only the portable code is used here");
         }
     }
 
@@ -579,26 +720,37 @@ mod tests {
     fn every_instruction_set_gives_the_same_bytes() {
         let mesh = icosphere(1.0, 2);
         let areas = vertex_areas(&mesh);
-        let rows: Vec<f64> = (0..mesh.positions.len() * 3)
-            .map(|i| (i % 17) as f64)
-            .collect();
-        let grid = source_cells(&mesh.positions, &areas, &rows, 3, 0.6);
-        let targets = morton_order(&mesh.positions, &grid);
-        for block in targets.chunks(BLOCK) {
-            let plain = block_sums(
-                &grid,
-                &mesh.positions,
-                block,
-                12.5,
-                0.6,
-                0.36,
-                GroupKernel::Portable,
-            );
-            let fast = block_sums_dispatch(&grid, &mesh.positions, block, 12.5, 0.6, 0.36);
-            assert_eq!(
-                plain.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
-                fast.iter().map(|x| x.to_bits()).collect::<Vec<_>>()
-            );
+        // 3 channels fill half a group; 27 (a score's seven maps and twenty chance maps)
+        // leave the AVX2 kernel's unpadded rows a last pass of four.
+        for k in [3, 27] {
+            let rows: Vec<f64> = (0..mesh.positions.len() * k)
+                .map(|i| (i % 17) as f64)
+                .collect();
+            let padded = (k + 1).div_ceil(GROUP) * GROUP;
+            let portable = source_cells(&mesh.positions, &areas, &rows, k, 0.6, padded);
+            let here = source_cells(&mesh.positions, &areas, &rows, k, 0.6, row_width(k));
+            let targets = morton_order(&mesh.positions, &portable);
+            for block in targets.chunks(BLOCK) {
+                let plain = block_sums(
+                    &portable,
+                    &mesh.positions,
+                    block,
+                    12.5,
+                    0.6,
+                    0.36,
+                    GroupKernel::Portable,
+                );
+                let fast = block_sums_dispatch(&here, &mesh.positions, block, 12.5, 0.6, 0.36);
+                for t in 0..BLOCK {
+                    let want = &plain[t * padded..t * padded + k + 1];
+                    let got = &fast[t * here.padded..t * here.padded + k + 1];
+                    assert_eq!(
+                        want.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                        got.iter().map(|x| x.to_bits()).collect::<Vec<_>>(),
+                        "{k} channels, lane {t}"
+                    );
+                }
+            }
         }
     }
 }
