@@ -1,6 +1,6 @@
 //! Measures on saliency maps: sparsity, and agreement with human ground truth.
 pub mod auc;
-pub mod cut_gaussian_sums;
+pub(crate) mod cut_gaussian_sums;
 pub mod dataset;
 pub(crate) mod error;
 pub mod gini;
