@@ -62,6 +62,7 @@ pub mod scoring;
 pub mod simulate;
 pub mod stimulus;
 pub mod study;
+pub(crate) mod total_order_key;
 pub mod truth;
 
 pub use mesh::{load_mesh, Mesh, MeshError};

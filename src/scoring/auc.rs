@@ -1,4 +1,5 @@
 //! Area under the ROC curve of a saliency map against fixated vertices.
+use crate::total_order_key::total_order_key;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -309,12 +310,6 @@ impl KeyPlaces {
             None => self.padded.len() - Self::COUNTED,
         }
     }
-}
-
-/// An integer whose order is f64::total_cmp's (−0 below +0, NaN at the ends).
-fn total_order_key(x: f64) -> i64 {
-    let bits = x.to_bits() as i64;
-    bits ^ ((((bits >> 63) as u64) >> 1) as i64)
 }
 
 /// AUC-Borji: the saliency at fixated vertices against the saliency at as many vertices drawn

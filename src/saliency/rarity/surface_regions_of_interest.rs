@@ -28,6 +28,7 @@ use crate::gaze_model::view_visibility::fibonacci_directions;
 use crate::mesh::edge_graph::distance_or_euclidean;
 use crate::mesh::over_segmentation::{over_segment, Patches};
 use crate::mesh::Mesh;
+use crate::total_order_key::{from_total_order_key, total_order_key};
 
 /// Parameters of SRI (Leifman et al. 2012); docs/baselines.md gives the choices.
 #[derive(Debug, Clone, Serialize, Deserialize)]
@@ -268,17 +269,6 @@ impl PairScratch {
     fn mean_of_smallest(&mut self, s: usize, i: usize, n: usize, k: usize) -> f64 {
         mean_of_k_smallest(&self.rows[s][..n], i, k, &mut self.smallest)
     }
-}
-
-/// f64's total order (`f64::total_cmp`) as an integer key.
-fn total_order_key(x: f64) -> i64 {
-    let bits = x.to_bits() as i64;
-    bits ^ ((((bits >> 63) as u64) >> 1) as i64)
-}
-
-/// The inverse of [`total_order_key`].
-fn from_total_order_key(key: i64) -> f64 {
-    f64::from_bits((key ^ ((((key >> 63) as u64) >> 1) as i64)) as u64)
 }
 
 /// Mean of the k smallest values of `row` other than `row[skip]` (by `f64::total_cmp`; all
