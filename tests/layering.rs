@@ -10,6 +10,7 @@ const ORDER: &[&str] = &[
     "progress",
     "provenance",
     "random",
+    "total_order_key",
     "protocol",
     "mesh",
     "stimulus",
