@@ -28,8 +28,10 @@ use super::progress_bar::Bars;
 /// gaussian; or heat
 /// diffusion along the surface with --kernel heat) and scored with
 /// AUC-Judd (ties split evenly), AUC-Borji (seeded), LCC, NSS, SIM, KL and the Gini index,
-/// beside a seeded random map blurred the same way ("chance") and, for fixation sets with
-/// subject ids, the split-half human ceiling ("human"). Ground-truth formats:
+/// beside 20 seeded random maps blurred the same way (the "chance" band: their mean, 2.5th and
+/// 97.5th percentiles; where large blurs merge sources, the random maps' go without first
+/// moments, which moves each draw slightly and the band not beyond its own sampling noise)
+/// and, for fixation sets with subject ids, the split-half human ceiling ("human"). Ground-truth formats:
 /// docs/ground-truth-format.md.
 ///
 /// Writes OUT.csv (mesh,method,metric,blur,value) and OUT.json (summaries, provenance), and

@@ -553,11 +553,13 @@ pub fn score_mesh(
                 })
             };
             let mut inputs: Vec<&[f64]> = maps.iter().map(|(_, m)| m.as_slice()).collect();
-            inputs.extend(chance.iter().map(|c| c.as_slice()));
             inputs.extend(subject_counts.iter().map(|c| c.as_slice()));
-            let blurred = blur.blur(&inputs, sigma)?;
+            // The chance maps matter only as samples of a distribution (the band), so where
+            // the blur merges sources they go at zero order, a quarter of a method's cost.
+            let references: Vec<&[f64]> = chance.iter().map(|c| c.as_slice()).collect();
+            let blurred = blur.blur_with_references(&inputs, &references, sigma)?;
             let (method_maps, rest) = blurred.split_at(maps.len());
-            let (chance_blurred, subject_maps) = rest.split_at(chance.len());
+            let (subject_maps, chance_blurred) = rest.split_at(subject_counts.len());
             let density = match truth {
                 GroundTruth::VertexMap(m) => m.values.clone(),
                 GroundTruth::Fixations(_) => sum_of_maps(subject_maps.iter(), n),

@@ -5,7 +5,9 @@
 //! kernel for every map at once in f32 blocks (`cut_gaussian_sums.rs`, within 10⁻⁵ of a map's
 //! largest value, ten times faster), and at large σ (where merging the sources of each cube of
 //! side σ/6 cuts the work) from merged sources with their first moments (within 6·10⁻⁴ of a
-//! map's range, tested). The blur is linear, so
+//! map's range, tested); there the chance band's random maps, read only as samples of a
+//! distribution, are merged without first moments (one channel each instead of four:
+//! [`GaussianBlur::blur_with_references`]). The blur is linear, so
 //! a sum of maps blurs to the sum of the blurred maps (used for split-half human maps).
 //! σ is in normalized units (half the bounding-box diagonal = 1).
 use glam::DVec3;
@@ -200,6 +202,12 @@ fn row_major(maps: &[&[f64]]) -> Vec<f64> {
     rows
 }
 
+/// Channels per merged source for dense maps flagged in `first_order`: M0 and M1's three
+/// components for a map, M0 alone for a reference ([`GaussianBlur::clustered_sums`]).
+fn merged_width(first_order: &[bool]) -> usize {
+    first_order.iter().map(|&f| if f { 4 } else { 1 }).sum()
+}
+
 fn column_major(rows: &[f64], k: usize) -> Vec<Vec<f64>> {
     let n = rows.len() / k.max(1);
     (0..k)
@@ -273,24 +281,28 @@ impl GaussianBlur {
     }
 
     /// The sum the dense maps get at σ with `channels` dense channels (the denominator one of
-    /// them). The 3σ cut: merged sources where merging cuts the sources more than 1.5 times
-    /// the four channels per map it costs, else the direct sum. The full Gaussian: by a cost model calibrated on the 50k armadillo at 8 and 28 channels (a direct
+    /// them), none a reference. The 3σ cut: merged sources where merging cuts the sources more
+    /// than 1.5 times the four channels per map (one per reference) it costs, else the direct
+    /// sum. The full Gaussian: by a cost model calibrated on the 50k armadillo at 8 and 28 channels (a direct
     /// pair, summed in f32 blocks by `cut_gaussian_sums`, costs about 0.64 + 0.02 per channel
     /// of the lattice's multiply-adds, whose passes are bound by memory and count three times).
     pub fn sum_at(&self, sigma: f64, channels: usize) -> GaussianSum {
-        self.plan(sigma, channels).0
+        self.plan(sigma, &vec![true; channels.saturating_sub(1)]).0
     }
 
-    /// [`GaussianBlur::sum_at`], with the merged sources' groups when it chooses them, so
-    /// that the sources are grouped once per σ.
-    fn plan(&self, sigma: f64, channels: usize) -> (GaussianSum, Vec<Vec<usize>>) {
+    /// [`GaussianBlur::sum_at`] for the dense maps flagged in `first_order` (false: a
+    /// reference, merged without first moments), with the merged sources' groups when it
+    /// chooses them, so that the sources are grouped once per σ.
+    fn plan(&self, sigma: f64, first_order: &[bool]) -> (GaussianSum, Vec<Vec<usize>>) {
+        let channels = first_order.len() + 1;
         if !self.lattice {
             let groups = self.clusters(sigma);
             let gain = self.direct.sources.len() as f64 / (groups.len() as f64).max(1.0);
             // A pair costs about (channels + 32) multiply-add units in either sum (the cost
-            // model below); merged sources carry four channels per map.
-            let dense = channels.saturating_sub(1) as f64;
-            let cost_ratio = (4.0 * dense + 33.0) / (dense + 33.0);
+            // model below); merged sources carry four channels per map, one per reference.
+            let dense = first_order.len() as f64;
+            let merged = merged_width(first_order) as f64;
+            let cost_ratio = (merged + 33.0) / (dense + 33.0);
             return if gain >= CLUSTER_MARGIN * cost_ratio {
                 (GaussianSum::Clustered, groups)
             } else {
@@ -311,23 +323,39 @@ impl GaussianBlur {
 
     /// Blurs every map at σ; σ = 0 returns copies.
     pub fn blur(&self, maps: &[&[f64]], sigma: f64) -> Vec<Vec<f64>> {
-        if sigma <= 0.0 || maps.is_empty() {
-            return maps.iter().map(|m| m.to_vec()).collect();
+        self.blur_with_references(maps, &[], sigma)
+    }
+
+    /// Blurs `maps` and then `references` at σ (their blurs in that order; σ = 0 returns
+    /// copies). A reference is a map whose blur serves only as a sample of a distribution (the
+    /// chance band's random maps): where sources merge ([`GaussianSum::Clustered`]) it is
+    /// carried without first moments, each source's value placed at its cube's centroid, which
+    /// costs one channel instead of four. Everywhere else a reference is blurred as a map is.
+    pub fn blur_with_references(
+        &self,
+        maps: &[&[f64]],
+        references: &[&[f64]],
+        sigma: f64,
+    ) -> Vec<Vec<f64>> {
+        let all: Vec<&[f64]> = maps.iter().chain(references).copied().collect();
+        if sigma <= 0.0 || all.is_empty() {
+            return all.iter().map(|m| m.to_vec()).collect();
         }
         let n = self.direct.positions.len();
-        let sparse: Vec<bool> = maps
+        let sparse: Vec<bool> = all
             .iter()
             .map(|m| m.iter().filter(|x| **x != 0.0).count() * SPARSE_FRACTION < n)
             .collect();
-        let dense: Vec<&[f64]> = maps
-            .iter()
-            .zip(&sparse)
-            .filter(|(_, s)| !**s)
-            .map(|(m, _)| *m)
-            .collect();
+        let (mut dense, mut first_order) = (Vec::new(), Vec::new());
+        for (i, (map, is_sparse)) in all.iter().zip(&sparse).enumerate() {
+            if !*is_sparse {
+                dense.push(*map);
+                first_order.push(i < maps.len());
+            }
+        }
         let k = dense.len();
         let rows = row_major(&dense);
-        let (sum, groups) = self.plan(sigma, k + 1);
+        let (sum, groups) = self.plan(sigma, &first_order);
         let (den, dense_num) = match sum {
             GaussianSum::Direct => cut_gaussian_sums(
                 &self.direct.positions,
@@ -337,12 +365,12 @@ impl GaussianBlur {
                 sigma,
                 self.cutoff_sigmas * sigma,
             ),
-            GaussianSum::Clustered => self.clustered_sums(&groups, &rows, k, sigma),
+            GaussianSum::Clustered => self.clustered_sums(&groups, &rows, &first_order, sigma),
             GaussianSum::Lattice => self.lattice_sums(&rows, k, sigma),
         };
         let mut dense_out = column_major(&dense_num, k.max(1)).into_iter();
-        let mut out = Vec::with_capacity(maps.len());
-        for (map, is_sparse) in maps.iter().zip(&sparse) {
+        let mut out = Vec::with_capacity(all.len());
+        for (map, is_sparse) in all.iter().zip(&sparse) {
             let mut blurred = if *is_sparse {
                 self.sparse_sum(map, sigma)
             } else {
@@ -391,16 +419,25 @@ impl GaussianBlur {
     /// c. Written K(c, v) (M0 − c·M1/σ²) + v·K(c, v) M1/σ², the part that depends on the target
     /// is v alone, outside the sum: the sums over merged sources are plain kernel sums of four
     /// channels per map (M0 − c·M1/σ² and M1's three components, each per unit area), so the
-    /// exact f32 block kernel does them; the cut applies at the centroid's distance.
+    /// exact f32 block kernel does them; the cut applies at the centroid's distance. A map not
+    /// flagged in `first_order` (a reference) keeps M0 alone: K(c, v) M0, one channel.
     fn clustered_sums(
         &self,
         groups: &[Vec<usize>],
         rows: &[f64],
-        k: usize,
+        first_order: &[bool],
         sigma: f64,
     ) -> (Vec<f64>, Vec<f64>) {
         let d = &self.direct;
-        let width = 4 * k;
+        let k = first_order.len();
+        let width = merged_width(first_order);
+        // Map j's M0 is channel j; its first moments, if it has them, channels moment[j]..+3.
+        let mut moment = vec![None; k];
+        let mut next = k;
+        for (j, _) in first_order.iter().enumerate().filter(|(_, f)| **f) {
+            moment[j] = Some(next);
+            next += 3;
+        }
         let inv_var = 1.0 / (sigma * sigma);
         let mut centres = Vec::with_capacity(groups.len());
         let mut areas = Vec::with_capacity(groups.len());
@@ -414,17 +451,21 @@ impl GaussianBlur {
             let row = &mut merged[g * width..(g + 1) * width];
             for &u in members {
                 let (a, offset) = (d.areas[u], d.positions[u] - c);
-                for j in 0..k {
+                for (j, m) in moment.iter().enumerate() {
                     let ax = a * rows[u * k + j];
                     row[j] += ax;
-                    row[k + 3 * j] += ax * offset.x;
-                    row[k + 3 * j + 1] += ax * offset.y;
-                    row[k + 3 * j + 2] += ax * offset.z;
+                    if let Some(m) = *m {
+                        row[m] += ax * offset.x;
+                        row[m + 1] += ax * offset.y;
+                        row[m + 2] += ax * offset.z;
+                    }
                 }
             }
-            for j in 0..k {
-                let m1 = DVec3::new(row[k + 3 * j], row[k + 3 * j + 1], row[k + 3 * j + 2]);
-                row[j] -= c.dot(m1) * inv_var;
+            for (j, m) in moment.iter().enumerate() {
+                if let Some(m) = *m {
+                    let m1 = DVec3::new(row[m], row[m + 1], row[m + 2]);
+                    row[j] -= c.dot(m1) * inv_var;
+                }
             }
             // Per unit area: the kernel weighs each channel by the source's area.
             row.iter_mut().for_each(|x| *x /= area);
@@ -444,9 +485,11 @@ impl GaussianBlur {
         let mut num = vec![0.0; d.positions.len() * k];
         for (v, p) in d.positions.iter().enumerate() {
             let s = &sums[v * width..(v + 1) * width];
-            for j in 0..k {
-                let s1 = DVec3::new(s[k + 3 * j], s[k + 3 * j + 1], s[k + 3 * j + 2]);
-                num[v * k + j] = s[j] + p.dot(s1) * inv_var;
+            for (j, m) in moment.iter().enumerate() {
+                num[v * k + j] = match *m {
+                    Some(m) => s[j] + p.dot(DVec3::new(s[m], s[m + 1], s[m + 2])) * inv_var,
+                    None => s[j],
+                };
             }
         }
         (den, num)
@@ -516,7 +559,7 @@ pub enum BlurKernel {
     /// Euclidean Gaussian cut at 3σ (the kernel every score so far used), summed exactly, or at
     /// large σ from merged sources with their first moments (within 6·10⁻⁴ of a map's range;
     /// AUC-Judd within 5·10⁻⁵ and LCC within 9·10⁻⁴ of the exact sums on the 50k armadillo's
-    /// seven maps). Leaks
+    /// seven maps; the chance band's random maps there without first moments). Leaks
     /// between parts that are close in space and far along the surface, as every Euclidean
     /// kernel does.
     Euclidean,
@@ -560,6 +603,24 @@ impl MeshBlur {
         match self {
             MeshBlur::Gaussian(b) => Ok(b.blur(maps, sigma)),
             MeshBlur::Heat(b) => b.blur(maps, sigma),
+        }
+    }
+
+    /// `maps` and then `references` blurred at `sigma`: a reference (a chance map) may be
+    /// summed more coarsely where sources merge ([`GaussianBlur::blur_with_references`]);
+    /// the heat kernel blurs both alike.
+    pub fn blur_with_references(
+        &self,
+        maps: &[&[f64]],
+        references: &[&[f64]],
+        sigma: f64,
+    ) -> Result<Vec<Vec<f64>>, ScoreError> {
+        match self {
+            MeshBlur::Gaussian(b) => Ok(b.blur_with_references(maps, references, sigma)),
+            MeshBlur::Heat(b) => {
+                let all: Vec<&[f64]> = maps.iter().chain(references).copied().collect();
+                b.blur(&all, sigma)
+            }
         }
     }
 }
@@ -770,7 +831,8 @@ mod tests {
         };
         for sigma in [0.1, 0.2, 0.4] {
             let rows = row_major(&[&smooth, &independent]);
-            let (den, num) = blur.clustered_sums(&blur.clusters(sigma), &rows, 2, sigma);
+            let (den, num) =
+                blur.clustered_sums(&blur.clusters(sigma), &rows, &[true, true], sigma);
             let want = exact.blur(&[&smooth, &independent], sigma);
             for (m, map) in [&smooth, &independent].into_iter().enumerate() {
                 let worst = (0..n)
@@ -781,6 +843,84 @@ mod tests {
                 assert!(worst <= 6e-4, "σ {sigma} map {m}: {worst:.2e} of the range");
             }
         }
+    }
+
+    /// References (the chance maps) beside maps: the maps' blurs keep their bits, and where
+    /// sources merge a reference is the zero-order sum, Σ_g A_g K(c_g, v) (M0_g / A_g) over the
+    /// cubes' centroids within the cut, computed here in f64 from the groups; where they do
+    /// not merge it is blurred exactly as a map is.
+    #[test]
+    fn references_merge_at_zero_order_and_leave_the_maps_bits_alone() {
+        let mesh = crate::mesh::test_meshes::icosphere(1.0, 5);
+        let n = mesh.positions.len();
+        let areas = vertex_areas(&mesh);
+        let blur = GaussianBlur::cut_at_three_sigma(mesh.positions.clone(), areas.clone());
+        let smooth: Vec<f64> = mesh
+            .positions
+            .iter()
+            .map(|p| (3.0 * p.x).sin() + p.y * p.z)
+            .collect();
+        let noise = chance_like(n);
+        for (sigma, merged) in [(0.02, false), (0.4, true)] {
+            let both = blur.blur_with_references(&[&smooth], &[&noise], sigma);
+            assert_eq!(both.len(), 2);
+            assert_eq!(
+                blur.plan(sigma, &[true, false]).0 == GaussianSum::Clustered,
+                merged,
+                "σ {sigma}"
+            );
+            assert_eq!(
+                blur.plan(sigma, &[true]).0 == GaussianSum::Clustered,
+                merged
+            );
+            assert_eq!(
+                both[0],
+                blur.blur(&[&smooth], sigma)[0],
+                "σ {sigma}: the map's bits"
+            );
+            if !merged {
+                assert_eq!(both[1], blur.blur(&[&noise], sigma)[0], "σ {sigma}");
+                continue;
+            }
+            let d = &blur.direct;
+            let (radius2, inv) = ((3.0 * sigma).powi(2), 1.0 / (2.0 * sigma * sigma));
+            let cubes: Vec<(DVec3, f64, f64)> = blur
+                .clusters(sigma)
+                .iter()
+                .map(|members| {
+                    let area: f64 = members.iter().map(|&u| d.areas[u]).sum();
+                    let centre = members
+                        .iter()
+                        .fold(DVec3::ZERO, |acc, &u| acc + d.positions[u] * d.areas[u])
+                        / area;
+                    let m0: f64 = members.iter().map(|&u| d.areas[u] * noise[u]).sum();
+                    (centre, area, m0)
+                })
+                .collect();
+            for (v, (p, got)) in d.positions.iter().zip(&both[1]).enumerate() {
+                let (mut num, mut den) = (0.0, 0.0);
+                for &(c, area, m0) in &cubes {
+                    let d2 = c.distance_squared(*p);
+                    if d2 <= radius2 {
+                        let k = (-d2 * inv).exp();
+                        num += k * m0;
+                        den += k * area;
+                    }
+                }
+                assert!(
+                    (got - num / den).abs() <= 1e-5,
+                    "σ {sigma} vertex {v}: {got} vs {}",
+                    num / den
+                );
+            }
+        }
+    }
+
+    /// Values in [0, 1) with no spatial pattern, as the chance maps are.
+    fn chance_like(n: usize) -> Vec<f64> {
+        (0..n)
+            .map(|i| ((i * 7919 + 13) % 1009) as f64 / 1009.0)
+            .collect()
     }
 
     #[test]
