@@ -94,28 +94,83 @@ pub(crate) fn cut_gaussian_sums_at(
     sigma: f64,
     radius: f64,
 ) -> (Vec<f64>, Vec<f64>) {
+    let sums = cut_gaussian_sums_then(
+        sources,
+        areas,
+        rows,
+        k,
+        positions,
+        sigma,
+        radius,
+        k + 1,
+        |_, totals, out| out.copy_from_slice(totals),
+    );
+    let den = sums.iter().step_by(k + 1).copied().collect();
+    let mut num = vec![0.0; positions.len() * k];
+    for (row, totals) in num.chunks_exact_mut(k.max(1)).zip(sums.chunks_exact(k + 1)) {
+        row[..k].copy_from_slice(&totals[1..]);
+    }
+    (den, num)
+}
+
+/// [`cut_gaussian_sums_at`], each target's sums (den, then the k numerators) turned at once
+/// into `out_width` values by `finish(target, sums, out)`: `out_width` values per target,
+/// without holding every target's k + 1 sums (a merged blur's 160 channels per vertex would
+/// be 64 MB for a 50k mesh).
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn cut_gaussian_sums_then<F>(
+    sources: &[DVec3],
+    areas: &[f64],
+    rows: &[f64],
+    k: usize,
+    positions: &[DVec3],
+    sigma: f64,
+    radius: f64,
+    out_width: usize,
+    finish: F,
+) -> Vec<f64>
+where
+    F: Fn(usize, &[f64], &mut [f64]) + Sync,
+{
     let n = positions.len();
-    if n == 0 || sources.is_empty() {
-        return (vec![0.0; n], vec![0.0; n * k]);
+    let mut out = vec![0.0; n * out_width];
+    if n == 0 {
+        return out;
+    }
+    if sources.is_empty() {
+        let zeros = vec![0.0; k + 1];
+        for (v, row) in out.chunks_exact_mut(out_width.max(1)).enumerate().take(n) {
+            finish(v, &zeros, &mut row[..out_width]);
+        }
+        return out;
     }
     let grid = source_cells(sources, areas, rows, k, radius, row_width(k));
     let targets = morton_order(positions, &grid);
     let inv = (1.0 / (2.0 * sigma * sigma)) as f32;
     let r2 = (radius * radius) as f32;
+    let p = grid.padded;
     let blocks: Vec<Vec<f64>> = targets
         .par_chunks(BLOCK)
-        .map(|block| block_sums_dispatch(&grid, positions, block, inv, radius, r2))
+        .map(|block| {
+            let totals = block_sums_dispatch(&grid, positions, block, inv, radius, r2);
+            let mut done = vec![0.0; block.len() * out_width];
+            for (t, &v) in block.iter().enumerate() {
+                finish(
+                    v,
+                    &totals[t * p..t * p + 1 + k],
+                    &mut done[t * out_width..(t + 1) * out_width],
+                );
+            }
+            done
+        })
         .collect();
-    let mut den = vec![0.0; n];
-    let mut num = vec![0.0; n * k];
-    let p = grid.padded;
-    for (block, totals) in targets.chunks(BLOCK).zip(&blocks) {
+    for (block, done) in targets.chunks(BLOCK).zip(&blocks) {
         for (t, &v) in block.iter().enumerate() {
-            den[v] = totals[t * p];
-            num[v * k..(v + 1) * k].copy_from_slice(&totals[t * p + 1..t * p + 1 + k]);
+            out[v * out_width..(v + 1) * out_width]
+                .copy_from_slice(&done[t * out_width..(t + 1) * out_width]);
         }
     }
-    (den, num)
+    out
 }
 
 /// Values per source row for k channels and the denominator: what the kernel that

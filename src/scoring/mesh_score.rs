@@ -555,7 +555,7 @@ pub fn score_mesh(
             let mut inputs: Vec<&[f64]> = maps.iter().map(|(_, m)| m.as_slice()).collect();
             inputs.extend(subject_counts.iter().map(|c| c.as_slice()));
             // The chance maps matter only as samples of a distribution (the band), so where
-            // the blur merges sources they go at zero order, a quarter of a method's cost.
+            // the blur merges sources they go to first order, four channels to a method's ten.
             let references: Vec<&[f64]> = chance.iter().map(|c| c.as_slice()).collect();
             let blurred = blur.blur_with_references(&inputs, &references, sigma)?;
             let (method_maps, rest) = blurred.split_at(maps.len());
