@@ -20,6 +20,7 @@
 //! The pair loop runs in f32, eight lanes at a time, with an exp that needs no libm: the
 //! same code on every x86-64 (AVX2 when the CPU has it, SSE2 otherwise, with identical
 //! results since no step is fused or reordered) and the same bytes on any number of threads.
+use crate::mesh::geometry::symmetric_outer;
 use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
@@ -210,14 +211,7 @@ impl Members<'_> {
         for j in js {
             let d = sources[j] - self.origin - c;
             let (a, af) = (weights[j], weights[j] * (values[j] - mean));
-            let dd = [
-                d.x * d.x,
-                d.y * d.y,
-                d.z * d.z,
-                d.x * d.y,
-                d.x * d.z,
-                d.y * d.z,
-            ];
+            let dd = symmetric_outer(d);
             for k in 0..6 {
                 wm[k] += a * dd[k];
             }

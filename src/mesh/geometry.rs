@@ -48,6 +48,18 @@ pub fn closest_point_on_triangle(p: DVec3, a: DVec3, b: DVec3, c: DVec3) -> DVec
     a + ab * v + ac * w
 }
 
+/// The six distinct entries of d dᵀ (xx, yy, zz, xy, xz, yz): what a second moment sums.
+pub(crate) fn symmetric_outer(d: DVec3) -> [f64; 6] {
+    [
+        d.x * d.x,
+        d.y * d.y,
+        d.z * d.z,
+        d.x * d.y,
+        d.x * d.z,
+        d.y * d.z,
+    ]
+}
+
 /// Eigen-decomposition of a symmetric 3x3 matrix by cyclic Jacobi rotations.
 /// Returns eigenvalues (descending) and the matching unit eigenvectors as columns.
 pub fn symmetric_eigen3(m: DMat3) -> ([f64; 3], DMat3) {

@@ -80,22 +80,8 @@ pub(crate) fn cut_gaussian_sums(
     sigma: f64,
     radius: f64,
 ) -> (Vec<f64>, Vec<f64>) {
-    cut_gaussian_sums_at(positions, areas, rows, k, positions, sigma, radius)
-}
-
-/// [`cut_gaussian_sums`] from one point set (`sources`, with `areas` and k values per point in
-/// `rows`) to another (`positions`, the targets): one pair (den, k numerators) per target.
-pub(crate) fn cut_gaussian_sums_at(
-    sources: &[DVec3],
-    areas: &[f64],
-    rows: &[f64],
-    k: usize,
-    positions: &[DVec3],
-    sigma: f64,
-    radius: f64,
-) -> (Vec<f64>, Vec<f64>) {
     let sums = cut_gaussian_sums_then(
-        sources,
+        positions,
         areas,
         rows,
         k,
@@ -105,16 +91,22 @@ pub(crate) fn cut_gaussian_sums_at(
         k + 1,
         |_, totals, out| out.copy_from_slice(totals),
     );
+    split_denominator(&sums, k)
+}
+
+/// Rows of (den, k numerators) split into the denominators and the numerators' rows.
+pub(crate) fn split_denominator(sums: &[f64], k: usize) -> (Vec<f64>, Vec<f64>) {
     let den = sums.iter().step_by(k + 1).copied().collect();
-    let mut num = vec![0.0; positions.len() * k];
+    let mut num = vec![0.0; sums.len() / (k + 1) * k];
     for (row, totals) in num.chunks_exact_mut(k.max(1)).zip(sums.chunks_exact(k + 1)) {
         row[..k].copy_from_slice(&totals[1..]);
     }
     (den, num)
 }
 
-/// [`cut_gaussian_sums_at`], each target's sums (den, then the k numerators) turned at once
-/// into `out_width` values by `finish(target, sums, out)`: `out_width` values per target,
+/// The sums of [`cut_gaussian_sums`] from one point set (`sources`, with `areas` and k values
+/// per point in `rows`) to another (`positions`, the targets), each target's sums (den, then
+/// the k numerators) turned at once into `out_width` values by `finish(target, sums, out)`: `out_width` values per target,
 /// without holding every target's k + 1 sums (a merged blur's 160 channels per vertex would
 /// be 64 MB for a 50k mesh).
 #[allow(clippy::too_many_arguments)]

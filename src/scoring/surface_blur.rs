@@ -14,10 +14,13 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::mesh::Mesh;
-use crate::scoring::cut_gaussian_sums::{cut_gaussian_sums, cut_gaussian_sums_then};
+use crate::scoring::cut_gaussian_sums::{
+    cut_gaussian_sums, cut_gaussian_sums_then, split_denominator,
+};
 use crate::scoring::error::ScoreError;
 use crate::scoring::lattice_gauss_transform::{lattice_gauss_transform, lattice_work};
 
+use crate::mesh::geometry::symmetric_outer;
 use crate::mesh::vertex_areas::vertex_areas;
 
 /// The Euclidean Gaussian blur's exact neighbourhood sums over a grid of 3σ cubes (the direct
@@ -510,15 +513,7 @@ impl GaussianBlur {
                         m0 += ax;
                         m1 += o * ax;
                         if second {
-                            let q = [
-                                o.x * o.x,
-                                o.y * o.y,
-                                o.z * o.z,
-                                o.x * o.y,
-                                o.x * o.z,
-                                o.y * o.z,
-                            ];
-                            for (m, q) in m2.iter_mut().zip(q) {
+                            for (m, q) in m2.iter_mut().zip(symmetric_outer(o)) {
                                 *m += ax * q;
                             }
                         }
@@ -564,12 +559,7 @@ impl GaussianBlur {
                 }
             },
         );
-        let den = sums.iter().step_by(k + 1).copied().collect();
-        let mut num = vec![0.0; d.positions.len() * k];
-        for (row, v) in num.chunks_exact_mut(k.max(1)).zip(sums.chunks_exact(k + 1)) {
-            row[..k].copy_from_slice(&v[1..]);
-        }
-        (den, num)
+        split_denominator(&sums, k)
     }
 
     /// [`SurfaceBlur::direct_sums`] by the lattice Gauss transform.
@@ -892,16 +882,10 @@ mod tests {
     /// where its scores moved more: README); bounded at 8·10⁻⁴.
     #[test]
     fn merged_sources_stay_close_to_the_exact_sum() {
-        let mesh = crate::mesh::test_meshes::icosphere(1.0, 5);
+        let (mesh, areas, smooth) = sphere_with_smooth_map();
         let n = mesh.positions.len();
-        let areas = vertex_areas(&mesh);
         let exact = SurfaceBlur::new(mesh.positions.clone(), areas.clone());
         let blur = GaussianBlur::cut_at_three_sigma(mesh.positions.clone(), areas.clone());
-        let smooth: Vec<f64> = mesh
-            .positions
-            .iter()
-            .map(|p| (3.0 * p.x).sin() + p.y * p.z)
-            .collect();
         let independent: Vec<f64> = (0..n).map(|i| ((i * 7919) % 101) as f64 / 100.0).collect();
         let range = |m: &[f64]| {
             m.iter().cloned().fold(f64::NEG_INFINITY, f64::max)
@@ -929,15 +913,9 @@ mod tests {
     /// the groups; where they do not merge it is blurred exactly as a map is.
     #[test]
     fn references_merge_at_first_order_and_leave_the_maps_bits_alone() {
-        let mesh = crate::mesh::test_meshes::icosphere(1.0, 5);
+        let (mesh, areas, smooth) = sphere_with_smooth_map();
         let n = mesh.positions.len();
-        let areas = vertex_areas(&mesh);
         let blur = GaussianBlur::cut_at_three_sigma(mesh.positions.clone(), areas.clone());
-        let smooth: Vec<f64> = mesh
-            .positions
-            .iter()
-            .map(|p| (3.0 * p.x).sin() + p.y * p.z)
-            .collect();
         let noise = chance_like(n);
         for (sigma, merged) in [(0.02, false), (0.4, true)] {
             let both = blur.blur_with_references(&[&smooth], &[&noise], sigma);
@@ -995,6 +973,18 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// The unit sphere of 10,242 vertices, its vertex areas, and a smooth map on it.
+    fn sphere_with_smooth_map() -> (Mesh, Vec<f64>, Vec<f64>) {
+        let mesh = crate::mesh::test_meshes::icosphere(1.0, 5);
+        let areas = vertex_areas(&mesh);
+        let smooth = mesh
+            .positions
+            .iter()
+            .map(|p| (3.0 * p.x).sin() + p.y * p.z)
+            .collect();
+        (mesh, areas, smooth)
     }
 
     /// Values in [0, 1) with no spatial pattern, as the chance maps are.
