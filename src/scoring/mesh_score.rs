@@ -11,6 +11,7 @@ use crate::mesh::geometry::{BoundingBox, Normalization};
 use crate::mesh::vertex_areas::vertex_areas;
 use crate::mesh::Mesh;
 use crate::progress::Progress;
+use crate::scoring::auc::auc_judd_and_seen;
 use crate::scoring::error::ScoreError;
 use crate::scoring::ground_truth::GroundTruth;
 use crate::scoring::map_agreement::{
@@ -329,8 +330,16 @@ impl Target<'_> {
         let stats = MeanStd::of(map, w);
         let distribution = as_distribution(map, w);
         let density = self.density_distribution.as_deref();
+        // AUC-Judd over every negative and over the seen ones come from one pass.
+        let (auc, auc_visible) = match self.seen {
+            Some(seen) => {
+                let (all, visible) = auc_judd_and_seen(map, self.positive, seen, w);
+                (all, Some(visible))
+            }
+            None => (auc_judd(map, self.positive, w), None),
+        };
         let mut metrics = vec![
-            ("auc_judd", auc_judd(map, self.positive, w)),
+            ("auc_judd", auc),
             (
                 "auc_borji",
                 auc_borji(map, self.fixated, w, p.borji_splits, p.seed),
@@ -347,8 +356,8 @@ impl Target<'_> {
                 gini_index(&map.iter().map(|v| v.max(0.0)).collect::<Vec<_>>()),
             ),
         ];
-        if let Some(seen) = self.seen {
-            metrics.push((AUC_JUDD_VISIBLE, auc_judd_seen(map, self.positive, seen, w)));
+        if let Some(visible) = auc_visible {
+            metrics.push((AUC_JUDD_VISIBLE, visible));
         }
         metrics
     }
@@ -365,11 +374,7 @@ pub fn auc_judd_seen(
     seen: &[bool],
     weights: Option<&[f64]>,
 ) -> f64 {
-    let keep: Vec<usize> = (0..map.len()).filter(|&i| positive[i] || seen[i]).collect();
-    let m: Vec<f64> = keep.iter().map(|&i| map[i]).collect();
-    let p: Vec<bool> = keep.iter().map(|&i| positive[i]).collect();
-    let w: Option<Vec<f64>> = weights.map(|w| keep.iter().map(|&i| w[i]).collect());
-    auc_judd(&m, &p, w.as_deref())
+    auc_judd_and_seen(map, positive, seen, weights).1
 }
 
 /// One side of a human split: its subjects' summed map and what the metrics read of it.
