@@ -1,6 +1,6 @@
 //! f64's total order (`f64::total_cmp`: −0 below +0, NaN at the ends) as an i64 whose integer
-//! order is the same, for code that sorts, searches or heaps many floats (AUC-Judd's placements,
-//! SRI's k smallest distances) and is faster on integers.
+//! order is the same, for code that sorts, searches or heaps many floats (Gini's sort,
+//! AUC-Judd's placements, SRI's k smallest distances) and is faster on integers.
 
 /// The key of `x`: `a.total_cmp(&b)` is `total_order_key(a).cmp(&total_order_key(b))`.
 pub(crate) fn total_order_key(x: f64) -> i64 {

@@ -2,6 +2,8 @@
 //! 2009): sort ascending, L(i/n) = share of the total held by the i smallest values,
 //! Gini = 1 − 2 × (trapezoid area under L). 0 for a uniform map, (n−1)/n for a one-hot one.
 
+use crate::total_order_key::{from_total_order_key, total_order_key};
+
 /// Points (i/n, L(i/n)) for i = 0..=n. None if any value is negative or not finite.
 pub fn lorenz_curve(values: &[f64]) -> Option<Vec<(f64, f64)>> {
     let sorted = sorted_if_valid(values)?;
@@ -58,53 +60,15 @@ fn for_each_lorenz_point(sorted: &[f64], mut point: impl FnMut((f64, f64))) {
     }
 }
 
-/// `values` sorted as `f64::total_cmp` sorts them (so −0 before +0), by a least-significant-
-/// digit radix sort of their bits mapped to that order: 11-bit digits, a pass skipped where
-/// every value shares the digit (maps in [0, 1] share their sign and most exponent bits).
-/// Values with equal keys have equal bits, so the result is the comparison sort's.
+/// `values` sorted as `f64::total_cmp` sorts them (so −0 before +0), by an unstable sort of
+/// their bits mapped to that order. Values with equal keys have equal bits, so the result is
+/// the comparison sort's. (On the 2-core AMD EPYC, 50,000 values: 0.98 ms, where an 11-bit
+/// least-significant-digit radix sort of the same keys took 1.46 ms and a 16-bit one 1.12 ms:
+/// each radix pass waits on its buckets' counters.)
 fn sorted_ascending(values: &[f64]) -> Vec<f64> {
-    const BITS: u32 = 11;
-    const BUCKETS: usize = 1 << BITS;
-    const PASSES: usize = 64usize.div_ceil(BITS as usize);
-    let key = |x: f64| {
-        let b = x.to_bits();
-        if b >> 63 == 1 {
-            !b
-        } else {
-            b | 1 << 63
-        }
-    };
-    let value = |k: u64| f64::from_bits(if k >> 63 == 1 { k & !(1 << 63) } else { !k });
-    let mut keys: Vec<u64> = values.iter().map(|&x| key(x)).collect();
-    if keys.len() < 256 {
-        keys.sort_unstable();
-        return keys.into_iter().map(value).collect();
-    }
-    let mut counts = vec![[0usize; BUCKETS]; PASSES];
-    for &k in &keys {
-        for (pass, count) in counts.iter_mut().enumerate() {
-            count[((k >> (pass as u32 * BITS)) as usize) & (BUCKETS - 1)] += 1;
-        }
-    }
-    let mut spare = vec![0u64; keys.len()];
-    for (pass, count) in counts.iter().enumerate() {
-        if count.contains(&keys.len()) {
-            continue;
-        }
-        let mut next = [0usize; BUCKETS];
-        let mut at = 0;
-        for (slot, c) in next.iter_mut().zip(count) {
-            *slot = at;
-            at += c;
-        }
-        for &k in &keys {
-            let digit = ((k >> (pass as u32 * BITS)) as usize) & (BUCKETS - 1);
-            spare[next[digit]] = k;
-            next[digit] += 1;
-        }
-        std::mem::swap(&mut keys, &mut spare);
-    }
-    keys.into_iter().map(value).collect()
+    let mut keys: Vec<i64> = values.iter().map(|&x| total_order_key(x)).collect();
+    keys.sort_unstable();
+    keys.into_iter().map(from_total_order_key).collect()
 }
 
 #[cfg(test)]
@@ -120,10 +84,10 @@ mod tests {
         assert!(gini_index(&[1.0, -1.0]).is_nan());
     }
 
-    /// The radix sort puts values where the comparison sort does: ties, ±0, subnormals,
+    /// The key sort puts values where the comparison sort does: ties, ±0, subnormals,
     /// infinities and NaNs of either sign, small and large inputs.
     #[test]
-    fn radix_order_is_the_total_order() {
+    fn key_order_is_the_total_order() {
         let specials = [
             0.0,
             -0.0,
