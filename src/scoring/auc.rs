@@ -167,7 +167,7 @@ struct PositivePlaces {
     shift: u32,
     last_bucket: u64,
     /// `start[b]`: positives in buckets before b.
-    start: Vec<u32>,
+    start: Vec<usize>,
     /// What a negative in bucket b adds in half units, 2 (positives − start[b]), or
     /// [`PositivePlaces::MIXED`] where the bucket holds a positive's key.
     half_units: Vec<u32>,
@@ -205,10 +205,6 @@ impl PositivePlaces {
             start: vec![0; buckets + 1],
             half_units: Vec::new(),
         };
-        // Positives beyond 2^31 would overflow the half units: far more than a map's memory.
-        let positives = u32::try_from(keys.len())
-            .unwrap_or(u32::MAX / 2)
-            .min(u32::MAX / 2);
         for &k in keys {
             let b = places.bucket(k);
             places.start[b + 1] += 1;
@@ -216,12 +212,14 @@ impl PositivePlaces {
         for b in 1..=buckets {
             places.start[b] += places.start[b - 1];
         }
+        // Half units that do not fit below MIXED (2^31 positives, more than a map's memory
+        // would hold) leave every bucket to the search.
         places.half_units = (0..buckets)
             .map(|b| {
-                if places.start[b + 1] > places.start[b] {
-                    Self::MIXED
-                } else {
-                    2 * (positives - places.start[b])
+                let add = 2 * (keys.len() - places.start[b]);
+                match u32::try_from(add) {
+                    Ok(add) if add < Self::MIXED && places.start[b + 1] == places.start[b] => add,
+                    _ => Self::MIXED,
                 }
             })
             .collect();
@@ -241,7 +239,7 @@ impl PositivePlaces {
     #[inline]
     fn places(&self, key: i64) -> (usize, usize) {
         let b = self.bucket(key);
-        let (from, to) = (self.start[b] as usize, self.start[b + 1] as usize);
+        let (from, to) = (self.start[b], self.start[b + 1]);
         let inside = &self.keys[from..to];
         (
             from + inside.partition_point(|&k| k < key),
