@@ -718,21 +718,23 @@ mod tests {
         }
     }
 
+    /// Values at the ends of f64's total order and around zero, for the placement tests.
+    const SPECIALS: [f64; 8] = [
+        f64::NEG_INFINITY,
+        -1e300,
+        -0.0,
+        0.0,
+        1e-310,
+        1e300,
+        f64::INFINITY,
+        f64::NAN,
+    ];
+
     /// The table's places against a search of the sorted keys, on keys clustered in one
     /// bucket, spread over many exponents, or special values, and on any key at all.
     #[test]
     fn table_places_equal_a_search_of_the_sorted_keys() {
         let mut rng = ChaCha8Rng::seed_from_u64(13);
-        let specials = [
-            f64::NEG_INFINITY,
-            -1e300,
-            -0.0,
-            0.0,
-            1e-310,
-            1e300,
-            f64::INFINITY,
-            f64::NAN,
-        ];
         let mut shifts = std::collections::BTreeSet::new();
         for round in 0..400 {
             let count = rng.random_range(0..300);
@@ -740,7 +742,7 @@ mod tests {
                 0 => rng.random_range(0..5) as f64 * 1e-3,
                 1 => rng.random_range(-1.0f64..1.0) * 10f64.powi(rng.random_range(-30..30)),
                 2 => rng.random::<f64>(),
-                _ => specials[rng.random_range(0..specials.len())],
+                _ => SPECIALS[rng.random_range(0..SPECIALS.len())],
             };
             let mut keys: Vec<i64> = (0..count)
                 .map(|_| total_order_key(draw(&mut rng)))
@@ -819,23 +821,13 @@ mod tests {
     #[test]
     fn bucketed_places_equal_a_search_of_the_sorted_keys() {
         let mut rng = ChaCha8Rng::seed_from_u64(11);
-        let specials = [
-            f64::NEG_INFINITY,
-            -1e300,
-            -0.0,
-            0.0,
-            1e-310,
-            1e300,
-            f64::INFINITY,
-            f64::NAN,
-        ];
         for round in 0..300 {
             let count = rng.random_range(0..40);
             // Values clustered (full buckets), spread over many exponents, or with specials.
             let draw = |rng: &mut ChaCha8Rng| match round % 3 {
                 0 => rng.random_range(0..5) as f64 * 1e-3,
                 1 => rng.random_range(-1.0f64..1.0) * 10f64.powi(rng.random_range(-30..30)),
-                _ => specials[rng.random_range(0..specials.len())],
+                _ => SPECIALS[rng.random_range(0..SPECIALS.len())],
             };
             let mut keys: Vec<i64> = (0..count)
                 .map(|_| total_order_key(draw(&mut rng)))

@@ -89,10 +89,16 @@ impl ZernikeBasis {
             weight += a;
             disc.push(u, v, h, a, rho);
         }
+        let (re, im) = self.moments(&disc);
+        self.descriptor(&re, &im, weight)
+    }
+
+    /// The descriptor from the moments and the disc's area: Z_n0 signed, |Z_nm| for m > 0,
+    /// each over the area; zeros for a disc without area.
+    fn descriptor(&self, re: &[f64], im: &[f64], weight: f64) -> Vec<f64> {
         if weight <= 0.0 {
             return vec![0.0; self.len()];
         }
-        let (re, im) = self.moments(&disc);
         self.terms
             .iter()
             .enumerate()
@@ -302,20 +308,7 @@ impl ZernikeBasis {
                 *im -= r * ps;
             }
         }
-        if weight <= 0.0 {
-            return vec![0.0; self.len()];
-        }
-        self.terms
-            .iter()
-            .enumerate()
-            .map(|(t, &(_, m))| {
-                if m == 0 {
-                    re[t] / weight
-                } else {
-                    (re[t] * re[t] + im[t] * im[t]).sqrt() / weight
-                }
-            })
-            .collect()
+        self.descriptor(&re, &im, weight)
     }
 }
 
