@@ -3,6 +3,7 @@ pub mod auc;
 pub(crate) mod cut_gaussian_sums;
 pub mod dataset;
 pub(crate) mod error;
+pub(crate) mod exp_of_nonpositive;
 pub mod gini;
 pub(crate) mod ground_truth;
 pub(crate) mod lattice_gauss_transform;
