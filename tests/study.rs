@@ -243,6 +243,37 @@ fn a_playlist_study_runs_resumes_shards_and_refuses_a_changed_mesh() {
         log_lines(&dir, "done")
     );
 
+    // From another working directory, the study named by its absolute path: the same study,
+    // nothing redone (its stimuli name their meshes from their own folders).
+    let elsewhere = std::env::temp_dir();
+    let toml = dir.join("study.toml");
+    meshgaze(
+        &elsewhere,
+        &["study", "run", toml.to_str().unwrap(), "--quiet"],
+    );
+    assert!(
+        log_lines(&dir, "done").is_empty() && log_lines(&dir, "failed").is_empty(),
+        "{}",
+        String::from_utf8_lossy(&read(dir.join("study/run.log")))
+    );
+    // So does a single-mesh command reading a stimulus.
+    meshgaze(
+        &elsewhere,
+        &[
+            "truth",
+            "-q",
+            "--stimulus",
+            dir.join("study/stimuli/bunny").to_str().unwrap(),
+            dir.join("hand/proj").to_str().unwrap(),
+            "-o",
+            dir.join("hand/truth-elsewhere").to_str().unwrap(),
+        ],
+    );
+    assert_eq!(
+        read(dir.join("hand/truth-elsewhere/truth.csv")),
+        read(dir.join("hand/truth/truth.csv"))
+    );
+
     // A run killed after projecting cow but before stamping it: redone, same bytes.
     let truth_before = read(dir.join("study/truth/cow/truth.csv"));
     std::fs::remove_file(dir.join("study/projection/cow/.meshgaze-stamp")).unwrap();

@@ -174,14 +174,21 @@ fn text<'a>(v: &'a Value, path: &[&str], file: &Path) -> Result<&'a str, Stimulu
         })
 }
 
-/// A file named in the manifest: as written (relative to the working directory when the
-/// stimulus was rendered), else relative to the manifest's folder, unless overridden.
+/// A file named in the manifest: relative to the manifest's folder (as `stimulus` writes
+/// it), or absolute. Manifests written before 2026-12-07 named the mesh as given on the
+/// command line, relative to the working directory of that run: such a name is still taken
+/// from the working directory when nothing of that name lies beside the manifest; the
+/// manifest's sha256 then refuses any other file of that name.
 fn resolve(named: &str, manifest_dir: &Path) -> PathBuf {
     let p = PathBuf::from(named);
-    if p.is_absolute() || p.exists() {
-        p
+    if p.is_absolute() {
+        return p;
+    }
+    let beside = manifest_dir.join(&p);
+    if beside.exists() || !p.exists() {
+        beside
     } else {
-        manifest_dir.join(p)
+        p
     }
 }
 
@@ -242,7 +249,18 @@ pub fn load_stimulus(
     // Mesh.
     let mesh_path = match mesh_override {
         Some(p) => p.to_path_buf(),
-        None => resolve(text(&v, &["mesh", "file"], mp)?, &dir),
+        None => {
+            let named = text(&v, &["mesh", "file"], mp)?;
+            let path = resolve(named, &dir);
+            if !path.exists() {
+                return Err(StimulusLoadError::Stage(format!(
+                    "{} names the mesh `{named}`, and there is no such file at {}: give the mesh with --mesh FILE (its sha256 must be the manifest's)",
+                    mp.display(),
+                    path.display()
+                )));
+            }
+            path
+        }
     };
     let mesh_sha256 = check_hash(&mesh_path, text(&v, &["mesh", "sha256"], mp)?, "mesh")?;
     let (mesh, mesh_report) =

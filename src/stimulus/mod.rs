@@ -24,7 +24,7 @@ pub use video_error::{H264StreamError, VideoError};
 use frame_loop::render_frames;
 use timeline::write_timeline;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use serde::Serialize;
@@ -124,7 +124,7 @@ pub fn render_stimulus(
         protocol_toml: protocol_text.to_string(),
         protocol_sha256: sha256_hex(protocol_text.as_bytes()),
         mesh: MeshFacts {
-            file: mesh_file.display().to_string(),
+            file: path_from(out_dir, mesh_file).display().to_string(),
             sha256: mesh_input.sha256,
             vertices: mesh.positions.len(),
             triangles: mesh.triangles.len(),
@@ -161,4 +161,56 @@ pub fn render_stimulus(
         + "\n";
     std::fs::write(&manifest_path, json).map_err(StimulusError::io(&manifest_path))?;
     Ok(manifest)
+}
+
+/// `target` as the manifest names it: relative to the manifest's folder `base` (so a study
+/// folder moved as a whole still finds its meshes, and no later command depends on the
+/// working directory it runs from), or absolute where the two share no root.
+pub(crate) fn path_from(base: &Path, target: &Path) -> PathBuf {
+    let absolute = |p: &Path| {
+        std::fs::canonicalize(p)
+            .or_else(|_| std::path::absolute(p))
+            .unwrap_or_else(|_| p.to_path_buf())
+    };
+    let (base, target) = (absolute(base), absolute(target));
+    let (b, t): (Vec<_>, Vec<_>) = (base.components().collect(), target.components().collect());
+    let common = b.iter().zip(&t).take_while(|(x, y)| x == y).count();
+    if common == 0 {
+        return target;
+    }
+    let mut relative = PathBuf::new();
+    for _ in common..b.len() {
+        relative.push("..");
+    }
+    for c in &t[common..] {
+        relative.push(c.as_os_str());
+    }
+    relative
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_manifest_names_its_mesh_from_its_own_folder() {
+        let root = std::env::temp_dir().join(format!("meshgaze-path-from-{}", std::process::id()));
+        let (meshes, stimulus) = (root.join("meshes"), root.join("study/stimuli/m"));
+        std::fs::create_dir_all(&meshes).unwrap();
+        std::fs::create_dir_all(&stimulus).unwrap();
+        std::fs::write(meshes.join("m.obj"), b"v 0 0 0\n").unwrap();
+        let named = path_from(&stimulus, &meshes.join("m.obj"));
+        assert_eq!(named, Path::new("../../../meshes/m.obj"));
+        assert!(stimulus.join(&named).exists());
+        // Spelled with `..` and `.` on the way: the same file, the same name.
+        let roundabout = root.join("study/../meshes/./m.obj");
+        assert_eq!(path_from(&stimulus, &roundabout), named);
+        // A mesh inside the stimulus folder.
+        std::fs::write(stimulus.join("own.obj"), b"v 0 0 0\n").unwrap();
+        assert_eq!(
+            path_from(&stimulus, &stimulus.join("own.obj")),
+            Path::new("own.obj")
+        );
+        std::fs::remove_dir_all(&root).unwrap();
+    }
 }

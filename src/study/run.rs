@@ -506,7 +506,9 @@ fn mesh_steps(
 /// The mesh's stimulus, refused when the mesh file changed after its video was rendered.
 fn load_unchanged_stimulus(study: &Study, m: &StudyMesh) -> Result<LoadedStimulus> {
     let stim_dir = study.output.join("stimuli").join(&m.name);
-    let stim = load_stimulus(&stim_dir, None).map_err(|e| {
+    // The study's own mesh file, not the name in the manifest: the same file (its sha256 is
+    // checked against the manifest's), wherever the study is run from.
+    let stim = load_stimulus(&stim_dir, Some(&m.path)).map_err(|e| {
         if e.is_changed_after_rendering() {
             StudyError::Changed(format!(
                 "{} changed after its video was rendered: the subjects saw the old mesh, so its fixations cannot be projected onto this one ({e})",
