@@ -57,6 +57,31 @@ fn compare_si(name: &str, mesh: &Mesh) -> (f64, f64) {
     (max, mean)
 }
 
+/// SI with the f64 eigensolver and the default refined f32 one: (Pearson, max |Δ|, mean |Δ|).
+fn compare_si_eigensolver(name: &str, mesh: &Mesh) -> (f64, f64, f64) {
+    use meshgaze::saliency::laplacian_spectrum::Eigensolver;
+    use meshgaze::saliency::spectral_irregularity::{spectral_irregularity, SpectralParams};
+    let t = Instant::now();
+    let double = spectral_irregularity(
+        mesh,
+        &SpectralParams {
+            eigensolver: Eigensolver::Double,
+            ..SpectralParams::default()
+        },
+    )
+    .unwrap()
+    .0;
+    let td = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let refined = spectral_irregularity(mesh, &SpectralParams::default())
+        .unwrap()
+        .0;
+    let tr = t.elapsed().as_secs_f64();
+    let (r, max, mean) = differences(&double, &refined);
+    eprintln!("SI {name}, f64 vs refined f32 eigenpairs: Pearson {r:.8}, max |Δ| {max:.2e}, mean |Δ| {mean:.2e} (f64 {td:.2} s, refined {tr:.2} s)");
+    (r, max, mean)
+}
+
 /// The error bounds docs/baselines.md states, on the bundled bunny.
 #[test]
 fn ms_and_si_stay_within_their_stated_error_of_the_exact_sums() {
@@ -92,5 +117,10 @@ fn assert_within_stated_error(name: &str, mesh: &meshgaze::mesh::Mesh) {
     assert!(
         max <= 1e-3 && mean <= 2e-4,
         "SI on {name}: max {max}, mean {mean}"
+    );
+    let (r, max, mean) = compare_si_eigensolver(name, mesh);
+    assert!(
+        r >= 0.99999 && max <= 1.5e-2 && mean <= 1e-3,
+        "SI's eigensolvers on {name}: Pearson {r}, max {max}, mean {mean}"
     );
 }

@@ -1,5 +1,6 @@
 //! Saliency methods: each computes one value per input vertex.
 mod error;
+pub mod laplacian_spectrum;
 pub mod lee_mesh_saliency;
 pub mod map_file;
 pub(crate) mod mean_curvature_saliency;
