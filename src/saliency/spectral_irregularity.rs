@@ -56,9 +56,9 @@ impl Default for SpectralParams {
             smoothing_sum: GaussianSum::Clustered {
                 cells_per_sigma: 3.0,
             },
-            // f32 and a Rayleigh–Ritz step on windows of 128: ~60% of f64's time on the 50k
-            // armadillo, the map within 9e-4 of f64's there and 9e-3 on the bundled bunny,
-            // Pearson ≥ 0.999997 (tests/gaussian_sum.rs).
+            // f32 and a Rayleigh–Ritz step on windows of 128: SI on the 50k armadillo in
+            // 2.8–3.1 CPU-s instead of 3.3–4.9, the map within 9e-4 of f64's there and 9e-3 on
+            // the bundled bunny, Pearson ≥ 0.999997 (tests/gaussian_sum.rs).
             eigensolver: Eigensolver::SingleRefined { window: 128 },
         }
     }
