@@ -15,6 +15,8 @@
 //! and 1.1e-4 at every blur (docs/baselines.md; tests/gaussian_sum.rs bounds the maps).
 use faer::linalg::matmul::matmul;
 use faer::{Accum, Mat, Par};
+
+use super::rarity::pca::{symmetric_eigen, symmetric_eigen_in};
 use serde::Serialize;
 
 /// How SI's eigenpairs are computed.
@@ -124,32 +126,10 @@ where
     for (i, d) in degree.iter().enumerate() {
         laplacian[(i, i)] = to(*d);
     }
-    let mut eigenvalues = faer::diag::Diag::<T>::zeros(n);
-    let mut basis = Mat::<T>::zeros(n, n);
     // Always split in two, whatever the pool's size: faer partitions the work by this count,
     // not by the threads that run it, so the bytes are the same on 1, 2 or more threads
     // (tests/sms.rs) while 2 cores share the work (bunny 4.6 s -> 2.7 s).
-    let par = Par::rayon(2);
-    let scratch = faer::linalg::evd::self_adjoint_evd_scratch::<T>(
-        n,
-        faer::linalg::evd::ComputeEigenvectors::Yes,
-        par,
-        Default::default(),
-    );
-    let mut mem = faer::dyn_stack::MemBuffer::new(scratch);
-    faer::linalg::evd::self_adjoint_evd(
-        laplacian.as_ref(),
-        eigenvalues.as_mut(),
-        Some(basis.as_mut()),
-        par,
-        faer::dyn_stack::MemStack::new(&mut mem),
-        Default::default(),
-    )
-    .map_err(|e| format!("the eigendecomposition failed: {e:?}"))?;
-    let values = (0..n)
-        .map(|i| eigenvalues.column_vector()[i].into())
-        .collect();
-    Ok((values, basis))
+    symmetric_eigen_in(laplacian.as_ref(), Par::rayon(2))
 }
 
 /// L in compressed rows: row i is d_i at the diagonal and −w_ij at its neighbours.
@@ -252,7 +232,7 @@ fn refine_in_windows(
         );
         // (Vᵀ L V) y = μ (Vᵀ V) y through G^{-1/2}: V G^{-1/2} is orthonormal, and the
         // eigenvectors Y of G^{-1/2} (Vᵀ L V) G^{-1/2} give the Ritz vectors V G^{-1/2} Y.
-        let (g_values, g_vectors) = small_evd(&gram)?;
+        let (g_values, g_vectors) = symmetric_eigen(&gram)?;
         if g_values.iter().any(|&s| s <= 0.5) {
             return Err(format!(
                 "the single-precision eigenvectors {start_here}..{} are not independent \
@@ -269,7 +249,7 @@ fn refine_in_windows(
         });
         let half = &inverse_root * &projected * &inverse_root;
         let symmetric = Mat::<f64>::from_fn(m, m, |r, c| 0.5 * (half[(r, c)] + half[(c, r)]));
-        let (ritz_values, ritz) = small_evd(&symmetric)?;
+        let (ritz_values, ritz) = symmetric_eigen(&symmetric)?;
         let transform = &inverse_root * &ritz;
         // The window's columns are replaced by an orthonormal basis of the same space, so the
         // whole basis stays orthonormal however the windows overlap.
@@ -288,30 +268,6 @@ fn refine_in_windows(
         }
         start += stride;
     }
-}
-
-/// A small symmetric matrix's eigenvalues (ascending) and eigenvectors, on one thread.
-fn small_evd(a: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>), String> {
-    let m = a.nrows();
-    let mut values = faer::diag::Diag::<f64>::zeros(m);
-    let mut vectors = Mat::<f64>::zeros(m, m);
-    let scratch = faer::linalg::evd::self_adjoint_evd_scratch::<f64>(
-        m,
-        faer::linalg::evd::ComputeEigenvectors::Yes,
-        Par::Seq,
-        Default::default(),
-    );
-    let mut mem = faer::dyn_stack::MemBuffer::new(scratch);
-    faer::linalg::evd::self_adjoint_evd(
-        a.as_ref(),
-        values.as_mut(),
-        Some(vectors.as_mut()),
-        Par::Seq,
-        faer::dyn_stack::MemStack::new(&mut mem),
-        Default::default(),
-    )
-    .map_err(|e| format!("the refinement's eigendecomposition failed: {e:?}"))?;
-    Ok(((0..m).map(|i| values.column_vector()[i]).collect(), vectors))
 }
 
 /// Eigenpairs in ascending order of value: windows end on their own Ritz values, so two

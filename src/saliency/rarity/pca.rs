@@ -89,11 +89,22 @@ pub fn pca_project(rows: &[Vec<f64>], dims: usize) -> Result<Vec<Vec<f64>>, Stri
 
 /// Eigenvalues (ascending) and eigenvectors (columns) of a symmetric matrix.
 pub fn symmetric_eigen(m: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>), String> {
+    symmetric_eigen_in(m.as_ref(), faer::Par::Seq)
+}
+
+/// [`symmetric_eigen`] in precision T (f32 or f64; the values returned as f64) with faer's
+/// parallelism `par` (lower triangle read).
+pub fn symmetric_eigen_in<T>(
+    m: faer::MatRef<'_, T>,
+    par: faer::Par,
+) -> Result<(Vec<f64>, Mat<T>), String>
+where
+    T: faer::traits::RealField + Copy + Into<f64>,
+{
     let d = m.nrows();
-    let mut eigenvalues = faer::diag::Diag::<f64>::zeros(d);
-    let mut basis = Mat::<f64>::zeros(d, d);
-    let par = faer::Par::Seq;
-    let scratch = faer::linalg::evd::self_adjoint_evd_scratch::<f64>(
+    let mut eigenvalues = faer::diag::Diag::<T>::zeros(d);
+    let mut basis = Mat::<T>::zeros(d, d);
+    let scratch = faer::linalg::evd::self_adjoint_evd_scratch::<T>(
         d,
         faer::linalg::evd::ComputeEigenvectors::Yes,
         par,
@@ -101,7 +112,7 @@ pub fn symmetric_eigen(m: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>), String> {
     );
     let mut mem = faer::dyn_stack::MemBuffer::new(scratch);
     faer::linalg::evd::self_adjoint_evd(
-        m.as_ref(),
+        m,
         eigenvalues.as_mut(),
         Some(basis.as_mut()),
         par,
@@ -110,7 +121,9 @@ pub fn symmetric_eigen(m: &Mat<f64>) -> Result<(Vec<f64>, Mat<f64>), String> {
     )
     .map_err(|e| format!("the eigendecomposition failed: {e:?}"))?;
     Ok((
-        (0..d).map(|i| eigenvalues.column_vector()[i]).collect(),
+        (0..d)
+            .map(|i| eigenvalues.column_vector()[i].into())
+            .collect(),
         basis,
     ))
 }
